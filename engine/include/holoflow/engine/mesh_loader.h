@@ -1,0 +1,44 @@
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "holoflow/engine/mesh_reader.h"
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::engine {
+
+enum class ComponentPolicy { All, Largest };
+
+struct LoadOptions {
+    ComponentPolicy components = ComponentPolicy::All;
+    std::size_t max_faces = 0;  //!< 0: no limit beyond 32-bit indices
+};
+
+//! What the loader changed on the way from file to MeshView (all counts; 0 when untouched).
+struct LoadReport {
+    std::size_t file_vertices = 0;
+    std::size_t file_polygons = 0;
+    std::size_t triangulated_polygons = 0;  //!< polygons with more than three corners
+    std::size_t triangles_from_polygons = 0;
+    std::size_t reoriented_faces = 0;       //!< faces flipped to make the winding consistent
+    std::size_t unreferenced_vertices = 0;  //!< dropped
+    std::size_t welded_vertices = 0;        //!< STL corners merged by position
+    std::size_t components = 0;             //!< in the file
+    std::size_t dropped_components = 0;     //!< with ComponentPolicy::Largest
+    std::size_t dropped_faces = 0;          //!< faces of the dropped components
+};
+
+struct LoadedMesh {
+    std::shared_ptr<const MeshView> mesh;
+    LoadReport report;
+};
+
+//! Reads, validates and repairs (see README "Input checks"). \throw MeshError.
+LoadedMesh load_mesh(const std::string& path, const LoadOptions& options = {});
+
+//! The validation and repair part alone, for soups made in memory. \throw MeshError.
+LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options = {});
+
+}  // namespace holoflow::engine

@@ -1,0 +1,36 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "holoflow/engine/mesh_error.h"
+
+namespace holoflow::engine {
+
+enum class MeshFormat { Off, Obj, Ply, Stl };
+
+//! Vertices and polygons exactly as a file states them (no validation beyond syntax).
+struct PolygonSoup {
+    std::vector<double> positions;          //!< 3 per vertex, x y z
+    std::vector<std::int64_t> indices;      //!< polygon corners, concatenated (0-based, as read)
+    std::vector<std::uint64_t> offsets{0};  //!< polygon p is indices[offsets[p] .. offsets[p+1])
+    std::size_t welded_vertices = 0;        //!< STL only: corners merged by identical position
+
+    std::size_t n_vertices() const { return positions.size() / 3; }
+    std::size_t n_polygons() const { return offsets.size() - 1; }
+};
+
+//! Format from the file extension (case-insensitive); \throw MeshError UnknownFormat.
+MeshFormat format_from_path(const std::string& path);
+
+//! Reads OFF, OBJ, PLY (ascii, binary little/big endian, `face` lists and `tristrips`) or STL
+//! (ascii or binary; corners welded by exact position). Never allocates more than the file can
+//! hold: header counts are checked against the file size first.
+//! \throw MeshError with the kind naming the problem.
+PolygonSoup read_polygon_soup(const std::string& path);
+
+//! The same from bytes already in memory (fuzzers and tests).
+PolygonSoup parse_polygon_soup(const char* data, std::size_t size, MeshFormat format);
+
+}  // namespace holoflow::engine

@@ -1,0 +1,139 @@
+#include "holoflow/kernels/mesh_view.h"
+
+#include <algorithm>
+#include <string>
+
+#include "holoflow/kernels/errors.h"
+
+namespace holoflow {
+namespace {
+
+std::string edge_name(Index a, Index b) {
+    return "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")";
+}
+
+// Pairs opposite halfedges with a counting sort on the smaller endpoint: linear time, and each
+// bucket holds only the few halfedges around one vertex.
+std::vector<Index> pair_halfedges(const TriangleMatrix& F, Index n_vertices) {
+    const Index n_halfedges = 3 * static_cast<Index>(F.rows());
+    std::vector<Index> bucket_start(static_cast<std::size_t>(n_vertices) + 1, 0);
+    auto tail = [&](Index h) { return F(h / 3, h % 3); };
+    auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
+    for (Index h = 0; h < n_halfedges; ++h) ++bucket_start[std::min(tail(h), head(h)) + 1];
+    for (Index v = 0; v < n_vertices; ++v) bucket_start[v + 1] += bucket_start[v];
+    std::vector<Index> bucket(n_halfedges);
+    {
+        std::vector<Index> fill(bucket_start.begin(), bucket_start.end() - 1);
+        for (Index h = 0; h < n_halfedges; ++h) bucket[fill[std::min(tail(h), head(h))]++] = h;
+    }
+    std::vector<Index> twin(n_halfedges, kNoHalfedge);
+    for (Index v = 0; v < n_vertices; ++v) {
+        const Index begin = bucket_start[v], end = bucket_start[v + 1];
+        for (Index i = begin; i < end; ++i) {
+            const Index h = bucket[i];
+            const Index other = std::max(tail(h), head(h));
+            for (Index j = i + 1; j < end; ++j) {
+                const Index k = bucket[j];
+                if (std::max(tail(k), head(k)) != other) continue;
+                if (twin[h] != kNoHalfedge || twin[k] != kNoHalfedge)
+                    throw InvalidInput("non-manifold " + edge_name(v, other) +
+                                       ": more than two faces share it");
+                if (tail(h) == tail(k))
+                    throw InvalidInput("inconsistent orientation at " + edge_name(v, other) +
+                                       ": both faces traverse it in the same direction");
+                twin[h] = k;
+                twin[k] = h;
+            }
+        }
+    }
+    return twin;
+}
+
+}  // namespace
+
+bool MeshView::is_closed() const {
+    return std::none_of(twin.begin(), twin.end(), [](Index t) { return t == kNoHalfedge; });
+}
+
+MeshView make_mesh_view(PointMatrix V, TriangleMatrix F) {
+    HOLOFLOW_REQUIRE(F.size() == 0 || (F.minCoeff() >= 0 && F.maxCoeff() < V.rows()),
+                     "face index out of range");
+    std::vector<Index> twin = pair_halfedges(F, static_cast<Index>(V.rows()));
+    return make_mesh_view(std::move(V), std::move(F), std::move(twin));
+}
+
+MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin) {
+    HOLOFLOW_REQUIRE(F.rows() > 0, "mesh has no faces");
+    HOLOFLOW_REQUIRE(F.rows() < (Index{1} << 30) / 2, "too many faces for 32-bit halfedge indices");
+    HOLOFLOW_REQUIRE(F.minCoeff() >= 0 && F.maxCoeff() < V.rows(), "face index out of range");
+    MeshView m;
+    m.V = std::move(V);
+    m.F = std::move(F);
+    m.twin = std::move(twin);
+    const Index n_h = m.n_halfedges();
+    HOLOFLOW_REQUIRE(static_cast<Index>(m.twin.size()) == n_h, "twin array has the wrong size");
+    for (Index h = 0; h < n_h; ++h) {
+        const Index t = m.twin[h];
+        if (t == kNoHalfedge) continue;
+        HOLOFLOW_REQUIRE(t >= 0 && t < n_h && t != h && m.twin[t] == h,
+                         "twin is not an involution at halfedge " + std::to_string(h));
+        HOLOFLOW_REQUIRE(m.tail(t) == m.head(h) && m.head(t) == m.tail(h),
+                         "twin halfedges are not opposite at halfedge " + std::to_string(h));
+    }
+    for (Index f = 0; f < m.n_faces(); ++f) {
+        const Index a = m.F(f, 0), b = m.F(f, 1), c = m.F(f, 2);
+        HOLOFLOW_REQUIRE(a != b && b != c && c != a,
+                         "face " + std::to_string(f) + " repeats a vertex");
+    }
+
+    // Edges: one per halfedge pair, represented by the smaller halfedge index.
+    m.halfedge_edge.assign(n_h, -1);
+    m.edge_halfedge.reserve(static_cast<std::size_t>(n_h) / 2 + 1);
+    for (Index h = 0; h < n_h; ++h) {
+        const Index t = m.twin[h];
+        if (t != kNoHalfedge && t < h) continue;
+        const Index e = static_cast<Index>(m.edge_halfedge.size());
+        m.edge_halfedge.push_back(h);
+        m.halfedge_edge[h] = e;
+        if (t != kNoHalfedge) m.halfedge_edge[t] = e;
+    }
+    m.E.resize(static_cast<Eigen::Index>(m.edge_halfedge.size()), 2);
+    for (Index e = 0; e < m.n_edges(); ++e) {
+        m.E(e, 0) = m.tail(m.edge_halfedge[e]);
+        m.E(e, 1) = m.head(m.edge_halfedge[e]);
+    }
+
+    // Outgoing halfedge per vertex, preferring the boundary one so that a counter-clockwise walk
+    // from it covers the whole fan.
+    const Index n_v = m.n_vertices();
+    m.vertex_halfedge.assign(n_v, kNoHalfedge);
+    std::vector<Index> outgoing(n_v, 0);
+    for (Index h = 0; h < n_h; ++h) {
+        const Index v = m.tail(h);
+        ++outgoing[v];
+        if (m.vertex_halfedge[v] == kNoHalfedge || m.twin[h] == kNoHalfedge) {
+            if (m.twin[h] == kNoHalfedge && m.vertex_halfedge[v] != kNoHalfedge &&
+                m.twin[m.vertex_halfedge[v]] == kNoHalfedge)
+                throw InvalidInput("non-manifold vertex " + std::to_string(v) +
+                                   ": it joins several boundary fans");
+            m.vertex_halfedge[v] = h;
+        }
+    }
+    for (Index v = 0; v < n_v; ++v) {
+        HOLOFLOW_REQUIRE(m.vertex_halfedge[v] != kNoHalfedge,
+                         "vertex " + std::to_string(v) + " is in no face");
+        Index visited = 0;
+        const Index start = m.vertex_halfedge[v];
+        Index h = start;
+        do {
+            ++visited;
+            h = m.rotate(h);
+        } while (h != kNoHalfedge && h != start && visited <= outgoing[v]);
+        if (visited != outgoing[v])
+            throw InvalidInput("non-manifold vertex " + std::to_string(v) +
+                               ": its faces form more than one fan");
+    }
+    return m;
+}
+
+}  // namespace holoflow
