@@ -12,44 +12,62 @@ std::string edge_name(Index a, Index b) {
     return "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")";
 }
 
-// Pairs opposite halfedges with a counting sort on the smaller endpoint: linear time, and each
-// bucket holds only the few halfedges around one vertex.
 std::vector<Index> pair_halfedges(const TriangleMatrix& F, Index n_vertices) {
-    const Index n_halfedges = 3 * static_cast<Index>(F.rows());
-    std::vector<Index> bucket_start(static_cast<std::size_t>(n_vertices) + 1, 0);
+    const HalfedgeGroups groups = group_halfedges_by_vertex_pair(F, n_vertices);
     auto tail = [&](Index h) { return F(h / 3, h % 3); };
     auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
-    for (Index h = 0; h < n_halfedges; ++h) ++bucket_start[std::min(tail(h), head(h)) + 1];
-    for (Index v = 0; v < n_vertices; ++v) bucket_start[v + 1] += bucket_start[v];
-    std::vector<Index> bucket(n_halfedges);
-    {
-        std::vector<Index> fill(bucket_start.begin(), bucket_start.end() - 1);
-        for (Index h = 0; h < n_halfedges; ++h) bucket[fill[std::min(tail(h), head(h))]++] = h;
-    }
-    std::vector<Index> twin(n_halfedges, kNoHalfedge);
-    for (Index v = 0; v < n_vertices; ++v) {
-        const Index begin = bucket_start[v], end = bucket_start[v + 1];
-        for (Index i = begin; i < end; ++i) {
-            const Index h = bucket[i];
-            const Index other = std::max(tail(h), head(h));
-            for (Index j = i + 1; j < end; ++j) {
-                const Index k = bucket[j];
-                if (std::max(tail(k), head(k)) != other) continue;
-                if (twin[h] != kNoHalfedge || twin[k] != kNoHalfedge)
-                    throw InvalidInput("non-manifold " + edge_name(v, other) +
-                                       ": more than two faces share it");
-                if (tail(h) == tail(k))
-                    throw InvalidInput("inconsistent orientation at " + edge_name(v, other) +
-                                       ": both faces traverse it in the same direction");
-                twin[h] = k;
-                twin[k] = h;
-            }
-        }
+    std::vector<Index> twin(3 * static_cast<std::size_t>(F.rows()), kNoHalfedge);
+    for (Index g = 0; g < groups.n_groups(); ++g) {
+        const Index begin = groups.group_start[g], size = groups.group_start[g + 1] - begin;
+        const Index h = groups.halfedges[begin];
+        const Index a = std::min(tail(h), head(h)), b = std::max(tail(h), head(h));
+        if (size > 2)
+            throw ConnectivityError(ConnectivityError::Kind::NonManifoldEdge, a, b,
+                                    "non-manifold " + edge_name(a, b) + ": " +
+                                        std::to_string(size) + " faces share it");
+        if (size < 2) continue;
+        const Index k = groups.halfedges[begin + 1];
+        if (tail(h) == tail(k))
+            throw ConnectivityError(ConnectivityError::Kind::InconsistentOrientation, a, b,
+                                    "inconsistent orientation at " + edge_name(a, b) +
+                                        ": both faces traverse it in the same direction");
+        twin[h] = k;
+        twin[k] = h;
     }
     return twin;
 }
 
 }  // namespace
+
+HalfedgeGroups group_halfedges_by_vertex_pair(const TriangleMatrix& F, Index n_vertices) {
+    const Index n_h = 3 * static_cast<Index>(F.rows());
+    auto tail = [&](Index h) { return F(h / 3, h % 3); };
+    auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
+    std::vector<Index> bucket_start(static_cast<std::size_t>(n_vertices) + 1, 0);
+    for (Index h = 0; h < n_h; ++h) ++bucket_start[std::min(tail(h), head(h)) + 1];
+    for (Index v = 0; v < n_vertices; ++v) bucket_start[v + 1] += bucket_start[v];
+    HalfedgeGroups groups;
+    groups.halfedges.resize(n_h);
+    {
+        std::vector<Index> fill(bucket_start.begin(), bucket_start.end() - 1);
+        for (Index h = 0; h < n_h; ++h) groups.halfedges[fill[std::min(tail(h), head(h))]++] = h;
+    }
+    groups.group_start.reserve(static_cast<std::size_t>(n_h) / 2 + 2);
+    for (Index v = 0; v < n_vertices; ++v) {
+        auto begin = groups.halfedges.begin() + bucket_start[v];
+        auto end = groups.halfedges.begin() + bucket_start[v + 1];
+        auto other = [&](Index h) { return std::max(tail(h), head(h)); };
+        // Ties by halfedge index keep the grouping deterministic.
+        std::sort(begin, end, [&](Index x, Index y) {
+            return other(x) != other(y) ? other(x) < other(y) : x < y;
+        });
+        for (auto it = begin; it != end; ++it)
+            if (it == begin || other(*it) != other(*(it - 1)))
+                groups.group_start.push_back(static_cast<Index>(it - groups.halfedges.begin()));
+    }
+    groups.group_start.push_back(n_h);
+    return groups;
+}
 
 bool MeshView::is_closed() const {
     return std::none_of(twin.begin(), twin.end(), [](Index t) { return t == kNoHalfedge; });
@@ -114,8 +132,9 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
         if (m.vertex_halfedge[v] == kNoHalfedge || m.twin[h] == kNoHalfedge) {
             if (m.twin[h] == kNoHalfedge && m.vertex_halfedge[v] != kNoHalfedge &&
                 m.twin[m.vertex_halfedge[v]] == kNoHalfedge)
-                throw InvalidInput("non-manifold vertex " + std::to_string(v) +
-                                   ": it joins several boundary fans");
+                throw ConnectivityError(ConnectivityError::Kind::NonManifoldVertex, v, -1,
+                                        "non-manifold vertex " + std::to_string(v) +
+                                            ": it joins several boundary fans");
             m.vertex_halfedge[v] = h;
         }
     }
@@ -130,8 +149,9 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
             h = m.rotate(h);
         } while (h != kNoHalfedge && h != start && visited <= outgoing[v]);
         if (visited != outgoing[v])
-            throw InvalidInput("non-manifold vertex " + std::to_string(v) +
-                               ": its faces form more than one fan");
+            throw ConnectivityError(ConnectivityError::Kind::NonManifoldVertex, v, -1,
+                                    "non-manifold vertex " + std::to_string(v) +
+                                        ": its faces form more than one fan");
     }
     return m;
 }

@@ -6,6 +6,8 @@
 
 #include <Eigen/Core>
 
+#include "holoflow/kernels/errors.h"
+
 namespace holoflow {
 
 using Index = std::int32_t;  // meshes up to 2^31 - 1 halfedges
@@ -15,6 +17,17 @@ using TriangleMatrix = Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>;
 using EdgeMatrix = Eigen::Matrix<Index, Eigen::Dynamic, 2, Eigen::RowMajor>;
 
 constexpr Index kNoHalfedge = -1;
+
+//! Connectivity that no MeshView can hold; `element` is the offending vertex (or an edge's
+//! smaller vertex, with `other` its larger one).
+struct ConnectivityError : InvalidInput {
+    enum class Kind { NonManifoldEdge, InconsistentOrientation, NonManifoldVertex };
+    ConnectivityError(Kind kind_, Index element_, Index other_, const std::string& message)
+        : InvalidInput(message), kind(kind_), element(element_), other(other_) {}
+    Kind kind;
+    Index element;
+    Index other;
+};
 
 //! Immutable, flat, read-only triangle mesh shared by all kernels.
 //!
@@ -49,6 +62,16 @@ struct MeshView {
     Index rotate(Index h) const { return twin[prev(h)]; }
     bool is_closed() const;
 };
+
+//! Halfedges of a triangle list grouped by their unordered vertex pair: group g is
+//! `halfedges[group_start[g] .. group_start[g + 1])`. Linear time (counting sort on the smaller
+//! vertex, then a sort inside each vertex's bucket), also for vertices of huge valence.
+struct HalfedgeGroups {
+    std::vector<Index> halfedges;
+    std::vector<Index> group_start;
+    Index n_groups() const { return static_cast<Index>(group_start.size()) - 1; }
+};
+HalfedgeGroups group_halfedges_by_vertex_pair(const TriangleMatrix& F, Index n_vertices);
 
 //! Builds the connectivity from consistently oriented triangles whose edges each have one or two
 //! faces traversing them in opposite directions and whose vertices are manifold.

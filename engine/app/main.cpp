@@ -1,0 +1,108 @@
+// holoflow command line: one executable, one subcommand per job. Errors go to stderr as
+// `error: <kind>: <detail>` with a distinct exit status per kind (README "Exit status").
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <iostream>
+#include <new>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "holoflow/engine/mesh_loader.h"
+#include "holoflow/engine/report.h"
+#include "holoflow/kernels/topology.h"
+
+namespace {
+
+using namespace holoflow;
+
+constexpr int kExitInternal = 1;
+constexpr int kExitUsage = 2;
+constexpr int kExitInvalidInput = 3;
+constexpr int kExitSolverFailure = 4;
+constexpr int kExitOutOfMemory = 5;
+
+int report_error(const std::string& kind, const std::string& detail, int status) {
+    std::cerr << "error: " << kind << ": " << detail << std::endl;
+    return status;
+}
+
+// Runs one subcommand and turns every failure into one stderr line and an exit status.
+int run_guarded(const std::function<int()>& body) {
+    try {
+        return body();
+    } catch (const engine::MeshError& e) {
+        return report_error(engine::to_string(e.kind), e.detail, engine::exit_status(e.kind));
+    } catch (const InvalidInput& e) {
+        return report_error("invalid_input", e.what(), kExitInvalidInput);
+    } catch (const SolverFailure& e) {
+        return report_error("solver_failure", e.what(), kExitSolverFailure);
+    } catch (const std::bad_alloc&) {
+        return report_error("out_of_memory", "allocation failed", kExitOutOfMemory);
+    } catch (const std::exception& e) {
+        return report_error("internal", e.what(), kExitInternal);
+    }
+}
+
+struct MeshArgs {
+    std::string path;
+    std::string components = "all";
+    std::size_t max_faces = 0;
+
+    void add_to(CLI::App& command) {
+        command.add_option("MESH", path, "mesh file: .off .obj .ply .stl")->required();
+        command
+            .add_option("--component", components,
+                        "several components: keep all, or only the largest")
+            ->check(CLI::IsMember({"all", "largest"}));
+        command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
+    }
+    engine::LoadOptions options() const {
+        engine::LoadOptions o;
+        o.components = components == "largest" ? engine::ComponentPolicy::Largest
+                                               : engine::ComponentPolicy::All;
+        o.max_faces = max_faces;
+        return o;
+    }
+};
+
+int run_info(const MeshArgs& mesh_args, bool json) {
+    const engine::LoadedMesh loaded = engine::load_mesh(mesh_args.path, mesh_args.options());
+    const kernels::Topology topology = kernels::compute_topology(*loaded.mesh);
+    const nlohmann::json report = engine::info_report(mesh_args.path, loaded, topology);
+    if (json)
+        std::cout << report.dump(2) << std::endl;
+    else
+        std::cout << engine::format_info_text(report);
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"holoflow: holomorphic flow segmentation of triangle meshes"};
+    app.set_version_flag("--version", std::string("holoflow ") + HOLOFLOW_VERSION);
+    app.require_subcommand(1);
+
+    MeshArgs info_mesh;
+    bool info_json = false;
+    CLI::App* info = app.add_subcommand("info", "topology of a mesh file and the repairs made on loading");
+    info_mesh.add_to(*info);
+    info->add_flag("--json", info_json, "print one JSON object instead of text");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        return report_error("usage", std::string(e.what()) + " (see --help)", kExitUsage);
+    }
+
+    if (info->parsed()) return run_guarded([&] { return run_info(info_mesh, info_json); });
+    return report_error("usage", "no subcommand", kExitUsage);
+}

@@ -1,0 +1,308 @@
+#include "holoflow/engine/mesh_loader.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+
+#include <Eigen/Geometry>
+
+namespace holoflow::engine {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+// A triangle is zero-area when its cross product vanishes to rounding relative to its longest
+// edge: exactly collinear or coincident corners. Needles with angles of 1e-6 degrees still pass.
+constexpr double kZeroAreaRelative = 16 * std::numeric_limits<double>::epsilon();
+// Ear clipping is quadratic in the polygon size; beyond this a fan is used.
+constexpr std::size_t kMaxEarClippingCorners = 256;
+// MeshView uses 32-bit halfedge indices (3 per face).
+constexpr std::size_t kMaxFaces = (std::size_t{1} << 29) - 1;
+
+[[noreturn]] void fail(MeshErrorKind kind, const std::string& detail) { throw MeshError(kind, detail); }
+
+std::string face_label(std::size_t polygon) { return "face " + std::to_string(polygon); }
+
+Vec3 point(const PolygonSoup& soup, std::int64_t v) {
+    return {soup.positions[3 * v], soup.positions[3 * v + 1], soup.positions[3 * v + 2]};
+}
+
+// Splits one polygon (corners already checked) into triangles appended to `out`: quads along the
+// shorter diagonal, larger polygons by ear clipping in the plane of their Newell normal.
+void triangulate(const PolygonSoup& soup, const std::int64_t* corner, std::size_t n,
+                 std::vector<std::array<std::int64_t, 3>>& out) {
+    if (n == 3) {
+        out.push_back({corner[0], corner[1], corner[2]});
+        return;
+    }
+    if (n == 4) {
+        const double d02 = (point(soup, corner[0]) - point(soup, corner[2])).squaredNorm();
+        const double d13 = (point(soup, corner[1]) - point(soup, corner[3])).squaredNorm();
+        if (d02 <= d13) {
+            out.push_back({corner[0], corner[1], corner[2]});
+            out.push_back({corner[0], corner[2], corner[3]});
+        } else {
+            out.push_back({corner[0], corner[1], corner[3]});
+            out.push_back({corner[1], corner[2], corner[3]});
+        }
+        return;
+    }
+    auto fan = [&] {
+        for (std::size_t i = 1; i + 1 < n; ++i) out.push_back({corner[0], corner[i], corner[i + 1]});
+    };
+    if (n > kMaxEarClippingCorners) return fan();
+    Vec3 normal = Vec3::Zero();
+    for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 p = point(soup, corner[i]), q = point(soup, corner[(i + 1) % n]);
+        normal += Vec3((p.y() - q.y()) * (p.z() + q.z()), (p.z() - q.z()) * (p.x() + q.x()),
+                       (p.x() - q.x()) * (p.y() + q.y()));
+    }
+    if (!(normal.norm() > 0)) return fan();
+    normal.normalize();
+    std::vector<std::size_t> ring(n);
+    std::iota(ring.begin(), ring.end(), 0);
+    auto is_ear = [&](std::size_t i) {
+        const std::size_t m = ring.size();
+        const Vec3 a = point(soup, corner[ring[(i + m - 1) % m]]), b = point(soup, corner[ring[i]]),
+                   c = point(soup, corner[ring[(i + 1) % m]]);
+        if ((b - a).cross(c - b).dot(normal) <= 0) return false;  // reflex or flat corner
+        for (std::size_t j = 0; j < m; ++j) {
+            if (j == i || j == (i + 1) % m || j == (i + m - 1) % m) continue;
+            const Vec3 p = point(soup, corner[ring[j]]);
+            if ((b - a).cross(p - a).dot(normal) >= 0 && (c - b).cross(p - b).dot(normal) >= 0 &&
+                (a - c).cross(p - c).dot(normal) >= 0)
+                return false;
+        }
+        return true;
+    };
+    while (ring.size() > 3) {
+        std::size_t ear = 0;
+        while (ear < ring.size() && !is_ear(ear)) ++ear;
+        if (ear == ring.size()) ear = 0;  // no proper ear (self-intersecting input): clip anyway
+        const std::size_t m = ring.size();
+        out.push_back({corner[ring[(ear + m - 1) % m]], corner[ring[ear]], corner[ring[(ear + 1) % m]]});
+        ring.erase(ring.begin() + static_cast<std::ptrdiff_t>(ear));
+    }
+    out.push_back({corner[ring[0]], corner[ring[1]], corner[ring[2]]});
+}
+
+// For every halfedge, the other halfedge on the same vertex pair (or -1 on the boundary).
+std::vector<Index> pair_edges(const TriangleMatrix& F, Index n_vertices) {
+    const HalfedgeGroups groups = group_halfedges_by_vertex_pair(F, n_vertices);
+    std::vector<Index> mate(3 * static_cast<std::size_t>(F.rows()), -1);
+    for (Index g = 0; g < groups.n_groups(); ++g) {
+        const Index begin = groups.group_start[g], size = groups.group_start[g + 1] - begin;
+        const Index h = groups.halfedges[begin];
+        if (size > 2) {
+            const Index a = F(h / 3, h % 3), b = F(h / 3, (h % 3 + 1) % 3);
+            fail(MeshErrorKind::NonManifoldEdge,
+                 "edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
+                     ") has " + std::to_string(size) +
+                     " faces (vertex numbers after dropping unreferenced vertices)");
+        }
+        if (size == 2) {
+            const Index k = groups.halfedges[begin + 1];
+            mate[h] = k;
+            mate[k] = h;
+        }
+    }
+    return mate;
+}
+
+struct Orientation {
+    std::vector<Index> component;  // #F
+    std::vector<char> flip;        // #F
+    Index n_components = 0;
+    std::size_t flipped = 0;
+};
+
+// Flood fill across manifold edges: neighbours traversing the shared edge in the same direction
+// need opposite flips. Per component keep the majority winding (fewest faces flipped).
+Orientation orient(const TriangleMatrix& F, const std::vector<Index>& mate) {
+    const Index n_f = static_cast<Index>(F.rows());
+    Orientation o;
+    o.component.assign(n_f, -1);
+    o.flip.assign(n_f, 0);
+    std::vector<Index> queue;
+    queue.reserve(n_f);
+    for (Index seed = 0; seed < n_f; ++seed) {
+        if (o.component[seed] != -1) continue;
+        const Index c = o.n_components++;
+        const std::size_t first = queue.size();
+        o.component[seed] = c;
+        queue.push_back(seed);
+        for (std::size_t q = first; q < queue.size(); ++q) {
+            const Index f = queue[q];
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k, m = mate[h];
+                if (m < 0) continue;
+                const Index g = m / 3;
+                const bool same_direction = F(f, k) == F(g, m % 3);
+                const char want = static_cast<char>(o.flip[f] ^ (same_direction ? 1 : 0));
+                if (o.component[g] == -1) {
+                    o.component[g] = c;
+                    o.flip[g] = want;
+                    queue.push_back(g);
+                } else if (o.flip[g] != want) {
+                    fail(MeshErrorKind::NonOrientable,
+                         "faces " + std::to_string(f) + " and " + std::to_string(g) +
+                             " cannot be oriented consistently: the surface is one-sided "
+                             "(Moebius band)");
+                }
+            }
+        }
+        const std::size_t size = queue.size() - first;
+        std::size_t flipped = 0;
+        for (std::size_t q = first; q < queue.size(); ++q) flipped += o.flip[queue[q]];
+        if (2 * flipped > size) {
+            for (std::size_t q = first; q < queue.size(); ++q) o.flip[queue[q]] ^= 1;
+            flipped = size - flipped;
+        }
+        o.flipped += flipped;
+    }
+    return o;
+}
+
+// Keeps the vertices that faces use, renumbered in their original order; returns the count dropped.
+std::size_t compact_vertices(PointMatrix& V, TriangleMatrix& F) {
+    std::vector<Index> new_index(static_cast<std::size_t>(V.rows()), -1);
+    for (Index i = 0; i < F.size(); ++i) new_index[F.data()[i]] = 0;
+    Index next = 0;
+    for (auto& n : new_index)
+        if (n == 0) n = next++;
+    const std::size_t dropped = static_cast<std::size_t>(V.rows()) - static_cast<std::size_t>(next);
+    if (dropped == 0) return 0;
+    PointMatrix kept(next, 3);
+    for (Index v = 0; v < V.rows(); ++v)
+        if (new_index[v] >= 0) kept.row(new_index[v]) = V.row(v);
+    for (Index i = 0; i < F.size(); ++i) F.data()[i] = new_index[F.data()[i]];
+    V = std::move(kept);
+    return dropped;
+}
+
+}  // namespace
+
+LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
+    LoadReport report;
+    report.file_vertices = soup.n_vertices();
+    report.file_polygons = soup.n_polygons();
+    report.welded_vertices = soup.welded_vertices;
+    if (soup.n_polygons() == 0) fail(MeshErrorKind::EmptyFile, "the file has no faces");
+    if (soup.n_vertices() >= static_cast<std::size_t>(std::numeric_limits<Index>::max()))
+        fail(MeshErrorKind::TooLarge, std::to_string(soup.n_vertices()) + " vertices");
+
+    for (std::size_t i = 0; i < soup.positions.size(); ++i)
+        if (!std::isfinite(soup.positions[i]))
+            fail(MeshErrorKind::NonFiniteCoordinate,
+                 "vertex " + std::to_string(i / 3) + " has coordinate " + "xyz"[i % 3] + " = " +
+                     std::to_string(soup.positions[i]));
+
+    const auto n_v = static_cast<std::int64_t>(soup.n_vertices());
+    std::vector<std::array<std::int64_t, 3>> triangles;
+    triangles.reserve(soup.indices.size() / 3 + 1);
+    std::vector<std::int64_t> sorted;
+    for (std::size_t p = 0; p < soup.n_polygons(); ++p) {
+        const std::int64_t* corner = soup.indices.data() + soup.offsets[p];
+        const std::size_t n = soup.offsets[p + 1] - soup.offsets[p];
+        if (n < 3)
+            fail(MeshErrorKind::DegenerateFace,
+                 face_label(p) + " has " + std::to_string(n) + " vertices (at least 3 needed)");
+        for (std::size_t i = 0; i < n; ++i)
+            if (corner[i] < 0 || corner[i] >= n_v)
+                fail(MeshErrorKind::IndexOutOfRange,
+                     face_label(p) + " refers to vertex " + std::to_string(corner[i]) +
+                         " but the file has " + std::to_string(n_v) + " vertices");
+        sorted.assign(corner, corner + n);
+        std::sort(sorted.begin(), sorted.end());
+        if (auto it = std::adjacent_find(sorted.begin(), sorted.end()); it != sorted.end())
+            fail(MeshErrorKind::RepeatedVertex,
+                 face_label(p) + " uses vertex " + std::to_string(*it) + " twice");
+        if (n > 3) {
+            ++report.triangulated_polygons;
+            const std::size_t before = triangles.size();
+            triangulate(soup, corner, n, triangles);
+            report.triangles_from_polygons += triangles.size() - before;
+        } else {
+            triangles.push_back({corner[0], corner[1], corner[2]});
+        }
+        if (triangles.size() > kMaxFaces || (options.max_faces && triangles.size() > options.max_faces))
+            fail(MeshErrorKind::TooLarge,
+                 "more than " + std::to_string(options.max_faces ? options.max_faces : kMaxFaces) +
+                     " triangles");
+    }
+
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+        const Vec3 a = point(soup, triangles[t][0]), b = point(soup, triangles[t][1]),
+                   c = point(soup, triangles[t][2]);
+        const double longest =
+            std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+        if ((b - a).cross(c - a).norm() <= kZeroAreaRelative * longest)
+            fail(MeshErrorKind::ZeroAreaFace,
+                 "triangle " + std::to_string(t) + " (vertices " + std::to_string(triangles[t][0]) +
+                     ", " + std::to_string(triangles[t][1]) + ", " +
+                     std::to_string(triangles[t][2]) + ") has zero area");
+    }
+
+    {   // duplicated faces: same vertex set, in any order or winding
+        std::vector<std::pair<std::array<std::int64_t, 3>, std::size_t>> keys(triangles.size());
+        for (std::size_t t = 0; t < triangles.size(); ++t) {
+            keys[t] = {triangles[t], t};
+            std::sort(keys[t].first.begin(), keys[t].first.end());
+        }
+        std::sort(keys.begin(), keys.end());
+        for (std::size_t i = 1; i < keys.size(); ++i)
+            if (keys[i].first == keys[i - 1].first)
+                fail(MeshErrorKind::DuplicateFace,
+                     "triangles " + std::to_string(keys[i - 1].second) + " and " +
+                         std::to_string(keys[i].second) + " use the same vertices (" +
+                         std::to_string(keys[i].first[0]) + ", " + std::to_string(keys[i].first[1]) +
+                         ", " + std::to_string(keys[i].first[2]) + ")");
+    }
+
+    PointMatrix V = Eigen::Map<const PointMatrix>(soup.positions.data(), n_v, 3);
+    TriangleMatrix F(static_cast<Eigen::Index>(triangles.size()), 3);
+    for (std::size_t t = 0; t < triangles.size(); ++t)
+        for (int k = 0; k < 3; ++k) F(static_cast<Eigen::Index>(t), k) = static_cast<Index>(triangles[t][k]);
+    triangles = {};
+    report.unreferenced_vertices = compact_vertices(V, F);
+
+    const Orientation o = orient(F, pair_edges(F, static_cast<Index>(V.rows())));
+    report.reoriented_faces = o.flipped;
+    report.components = static_cast<std::size_t>(o.n_components);
+    for (Index f = 0; f < F.rows(); ++f)
+        if (o.flip[f]) std::swap(F(f, 1), F(f, 2));
+
+    if (options.components == ComponentPolicy::Largest && o.n_components > 1) {
+        std::vector<std::size_t> size(o.n_components, 0);
+        for (Index c : o.component) ++size[c];
+        const Index largest =
+            static_cast<Index>(std::max_element(size.begin(), size.end()) - size.begin());
+        TriangleMatrix kept(static_cast<Eigen::Index>(size[largest]), 3);
+        Index next = 0;
+        for (Index f = 0; f < F.rows(); ++f)
+            if (o.component[f] == largest) kept.row(next++) = F.row(f);
+        report.dropped_components = static_cast<std::size_t>(o.n_components) - 1;
+        report.dropped_faces = static_cast<std::size_t>(F.rows()) - size[largest];
+        F = std::move(kept);
+        compact_vertices(V, F);
+    }
+
+    try {
+        return {std::make_shared<const MeshView>(make_mesh_view(std::move(V), std::move(F))), report};
+    } catch (const ConnectivityError& e) {
+        // Edges and winding were checked above; only vertex fans remain to go wrong here.
+        const MeshErrorKind kind = e.kind == ConnectivityError::Kind::NonManifoldVertex
+                                       ? MeshErrorKind::NonManifoldVertex
+                                       : MeshErrorKind::NonManifoldEdge;
+        fail(kind, e.what());
+    }
+}
+
+LoadedMesh load_mesh(const std::string& path, const LoadOptions& options) {
+    return mesh_from_soup(read_polygon_soup(path), options);
+}
+
+}  // namespace holoflow::engine

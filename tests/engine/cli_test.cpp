@@ -1,0 +1,105 @@
+// End-to-end checks of the holoflow executable: output format, error lines and exit statuses.
+#include <algorithm>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "holoflow/engine/mesh_error.h"
+#include "support/test_support.h"
+
+namespace holoflow {
+namespace {
+
+using engine::MeshErrorKind;
+
+TEST(Cli, VersionAndHelp) {
+    const auto version = test::run_cli("--version");
+    EXPECT_EQ(version.status, 0);
+    EXPECT_NE(version.out.find("holoflow"), std::string::npos);
+    const auto help = test::run_cli("info --help");
+    EXPECT_EQ(help.status, 0);
+    EXPECT_NE(help.out.find("--json"), std::string::npos);
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+    EXPECT_EQ(test::run_cli("").status, 2);
+    EXPECT_EQ(test::run_cli("info").status, 2);
+    const auto r = test::run_cli("info x.off --component some");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_EQ(r.err.rfind("error: usage: ", 0), 0u) << r.err;
+}
+
+TEST(Cli, InfoJsonOnCorpusMesh) {
+    const auto r = test::run_cli("info --json '" + test::corpus("eight.off") + "'");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    for (const char* key : {"vertices", "edges", "faces", "components", "boundary_loops",
+                            "euler_characteristic", "genus", "orientable", "repairs"})
+        EXPECT_TRUE(j.contains(key)) << key;
+    EXPECT_EQ(j["genus"], 2);
+    EXPECT_EQ(j["components"], 1);
+    EXPECT_EQ(j["boundary_loops"], 0);
+    EXPECT_EQ(j["orientable"], true);
+    EXPECT_EQ(j["euler_characteristic"].get<int>(),
+              j["vertices"].get<int>() - j["edges"].get<int>() + j["faces"].get<int>());
+    EXPECT_TRUE(j["repairs"].is_object());
+    EXPECT_TRUE(r.err.empty()) << r.err;
+}
+
+struct BadFile {
+    const char* name;
+    const char* bytes;
+    MeshErrorKind kind;
+};
+
+class CliBadInput : public ::testing::TestWithParam<BadFile> {};
+
+TEST_P(CliBadInput, OneErrorLineAndTheKindsExitStatus) {
+    test::TempDir dir;
+    const std::string path = dir.write(GetParam().name, GetParam().bytes);
+    for (const std::string flag : {"", "--json "}) {
+        const auto r = test::run_cli("info " + flag + "'" + path + "'");
+        EXPECT_EQ(r.status, engine::exit_status(GetParam().kind)) << r.err;
+        const std::string prefix = std::string("error: ") + engine::to_string(GetParam().kind) + ": ";
+        EXPECT_EQ(r.err.rfind(prefix, 0), 0u) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+        EXPECT_TRUE(r.out.empty()) << "partial output: " << r.out;
+    }
+}
+
+const BadFile kBadFiles[] = {
+    {"empty.off", "", MeshErrorKind::EmptyFile},
+    {"mesh.xyz", "1 2 3\n", MeshErrorKind::UnknownFormat},
+    {"huge.off", "OFF\n1000000000000 1 0\n0 0 0\n", MeshErrorKind::HeaderMismatch},
+    {"short.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n", MeshErrorKind::Truncated},
+    {"nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", MeshErrorKind::NonFiniteCoordinate},
+    {"range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", MeshErrorKind::IndexOutOfRange},
+    {"repeat.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1\n", MeshErrorKind::RepeatedVertex},
+    {"flat.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n", MeshErrorKind::ZeroAreaFace},
+    {"dup.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 2 3 1\n", MeshErrorKind::DuplicateFace},
+    {"fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
+     MeshErrorKind::NonManifoldEdge},
+    {"bowtie.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -1 0 0\nv 0 -1 0\nf 1 2 3\nf 1 4 5\n",
+     MeshErrorKind::NonManifoldVertex},
+};
+
+INSTANTIATE_TEST_SUITE_P(Files, CliBadInput, ::testing::ValuesIn(kBadFiles),
+                         [](const auto& info) {
+                             std::string n = info.param.name;
+                             std::replace(n.begin(), n.end(), '.', '_');
+                             return n;
+                         });
+
+TEST(Cli, MissingFileAndDirectory) {
+    const auto missing = test::run_cli("info /nonexistent/dir/mesh.off");
+    EXPECT_EQ(missing.status, engine::exit_status(MeshErrorKind::FileNotFound));
+    EXPECT_EQ(missing.err.rfind("error: file_not_found: ", 0), 0u) << missing.err;
+    test::TempDir dir;
+    std::filesystem::create_directories(dir.path() / "folder.off");
+    const auto folder = test::run_cli("info '" + (dir.path() / "folder.off").string() + "'");
+    EXPECT_EQ(folder.status, engine::exit_status(MeshErrorKind::Unreadable)) << folder.err;
+}
+
+}  // namespace
+}  // namespace holoflow

@@ -1,0 +1,214 @@
+#include "holoflow/engine/mesh_loader.h"
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "holoflow/kernels/topology.h"
+#include "support/test_support.h"
+
+namespace holoflow::engine {
+namespace {
+
+PolygonSoup soup_of(std::vector<double> positions, std::vector<std::vector<std::int64_t>> polygons) {
+    PolygonSoup s;
+    s.positions = std::move(positions);
+    for (const auto& p : polygons) {
+        s.indices.insert(s.indices.end(), p.begin(), p.end());
+        s.offsets.push_back(s.indices.size());
+    }
+    return s;
+}
+
+// Octahedron: closed genus 0, 6 vertices, 8 faces, all wound outward.
+PolygonSoup octahedron() {
+    return soup_of({1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1},
+                   {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                    {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}});
+}
+
+MeshErrorKind kind_of(const PolygonSoup& soup, const LoadOptions& options = {}) {
+    try {
+        mesh_from_soup(soup, options);
+    } catch (const MeshError& e) {
+        return e.kind;
+    }
+    ADD_FAILURE() << "expected a MeshError";
+    return MeshErrorKind::ParseError;
+}
+
+TEST(MeshLoader, OctahedronIsClosedGenusZero) {
+    const LoadedMesh m = mesh_from_soup(octahedron());
+    const kernels::Topology t = kernels::compute_topology(*m.mesh);
+    EXPECT_EQ(t.vertices, 6);
+    EXPECT_EQ(t.edges, 12);
+    EXPECT_EQ(t.faces, 8);
+    EXPECT_EQ(t.genus, 0);
+    EXPECT_EQ(m.report.reoriented_faces, 0u);
+}
+
+TEST(MeshLoader, InconsistentWindingIsFixedAndCounted) {
+    PolygonSoup s = octahedron();
+    std::swap(s.indices[1], s.indices[2]);     // face 0 reversed
+    std::swap(s.indices[13], s.indices[14]);   // face 4 reversed
+    const LoadedMesh m = mesh_from_soup(s);
+    EXPECT_EQ(m.report.reoriented_faces, 2u);  // the minority is flipped back
+    EXPECT_TRUE(m.mesh->is_closed());
+    // Every face now agrees with the original winding.
+    const LoadedMesh reference = mesh_from_soup(octahedron());
+    EXPECT_EQ(m.mesh->F, reference.mesh->F);
+}
+
+TEST(MeshLoader, PolygonsAreTriangulated) {
+    // A cube made of quads, plus a non-convex L-shaped hexagon sheet elsewhere (second component).
+    PolygonSoup s = soup_of({0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 1, 1, 1, 1, 0, 1, 1,
+                             // L-shape in the plane z = 5
+                             0, 0, 5, 2, 0, 5, 2, 1, 5, 1, 1, 5, 1, 2, 5, 0, 2, 5},
+                            {{0, 3, 2, 1}, {4, 5, 6, 7}, {0, 1, 5, 4}, {1, 2, 6, 5}, {2, 3, 7, 6},
+                             {3, 0, 4, 7}, {8, 9, 10, 11, 12, 13}});
+    const LoadedMesh m = mesh_from_soup(s);
+    EXPECT_EQ(m.report.triangulated_polygons, 7u);
+    EXPECT_EQ(m.report.triangles_from_polygons, 12u + 4u);
+    EXPECT_EQ(m.report.components, 2u);
+    const kernels::Topology t = kernels::compute_topology(*m.mesh);
+    EXPECT_EQ(t.components, 2);
+    EXPECT_EQ(t.boundary_loops, 1);
+    // Ear clipping keeps the L-shape's area (3) exactly: no triangle over the notch.
+    double area = 0;
+    for (Index f = 0; f < m.mesh->n_faces(); ++f) {
+        const Eigen::Vector3d a = m.mesh->V.row(m.mesh->F(f, 0)), b = m.mesh->V.row(m.mesh->F(f, 1)),
+                              c = m.mesh->V.row(m.mesh->F(f, 2));
+        if (a.z() == 5) area += 0.5 * (b - a).cross(c - a).norm();
+    }
+    EXPECT_DOUBLE_EQ(area, 3.0);
+}
+
+TEST(MeshLoader, UnreferencedVerticesAreDropped) {
+    PolygonSoup s = octahedron();
+    s.positions.insert(s.positions.end(), {7, 7, 7, 8, 8, 8});
+    const LoadedMesh m = mesh_from_soup(s);
+    EXPECT_EQ(m.report.unreferenced_vertices, 2u);
+    EXPECT_EQ(m.mesh->n_vertices(), 6);
+}
+
+TEST(MeshLoader, LargestComponentPolicy) {
+    PolygonSoup s = octahedron();
+    // A lone triangle far away: 2 components.
+    s.positions.insert(s.positions.end(), {10, 0, 0, 11, 0, 0, 10, 1, 0});
+    s.indices.insert(s.indices.end(), {6, 7, 8});
+    s.offsets.push_back(s.indices.size());
+    const LoadedMesh all = mesh_from_soup(s);
+    EXPECT_EQ(kernels::compute_topology(*all.mesh).components, 2);
+    LoadOptions largest;
+    largest.components = ComponentPolicy::Largest;
+    const LoadedMesh one = mesh_from_soup(s, largest);
+    EXPECT_EQ(one.report.components, 2u);
+    EXPECT_EQ(one.report.dropped_components, 1u);
+    EXPECT_EQ(one.report.dropped_faces, 1u);
+    EXPECT_EQ(one.mesh->n_faces(), 8);
+    EXPECT_EQ(one.mesh->n_vertices(), 6);
+}
+
+TEST(MeshLoader, EachBadInputHasItsKind) {
+    PolygonSoup s = octahedron();
+    s.positions[4] = std::numeric_limits<double>::quiet_NaN();
+    EXPECT_EQ(kind_of(s), MeshErrorKind::NonFiniteCoordinate);
+    s = octahedron();
+    s.positions[0] = std::numeric_limits<double>::infinity();
+    EXPECT_EQ(kind_of(s), MeshErrorKind::NonFiniteCoordinate);
+
+    s = octahedron();
+    s.indices[5] = 6;
+    EXPECT_EQ(kind_of(s), MeshErrorKind::IndexOutOfRange);
+    s.indices[5] = -1;
+    EXPECT_EQ(kind_of(s), MeshErrorKind::IndexOutOfRange);
+    s.indices[5] = std::int64_t{1} << 33;
+    EXPECT_EQ(kind_of(s), MeshErrorKind::IndexOutOfRange);
+
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0}, {{0, 1}})), MeshErrorKind::DegenerateFace);
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0}, {{0, 1, 1}})),
+              MeshErrorKind::RepeatedVertex);
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 2, 0, 0}, {{0, 1, 2}})),
+              MeshErrorKind::ZeroAreaFace);
+    // Two distinct vertices at one position make a zero-area face too.
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 1, 0, 0}, {{0, 1, 2}})),
+              MeshErrorKind::ZeroAreaFace);
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0}, {{0, 1, 2}, {0, 2, 1}})),
+              MeshErrorKind::DuplicateFace);
+    EXPECT_EQ(kind_of(soup_of({}, {})), MeshErrorKind::EmptyFile);
+
+    // Three triangles on one edge.
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1},
+                              {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}})),
+              MeshErrorKind::NonManifoldEdge);
+    // Two triangles touching at one vertex only (a bow tie).
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0},
+                              {{0, 1, 2}, {0, 3, 4}})),
+              MeshErrorKind::NonManifoldVertex);
+    // Two octahedra sharing one vertex.
+    PolygonSoup twin = octahedron();
+    const std::size_t n = twin.n_vertices();
+    for (std::size_t i = 0; i < n * 3; ++i) twin.positions.push_back(octahedron().positions[i] + (i % 3 == 0 ? 2 : 0));
+    for (std::size_t i = 0; i < 24; ++i) {
+        const std::int64_t v = octahedron().indices[i];
+        twin.indices.push_back(v == 1 ? 0 : v + static_cast<std::int64_t>(n));  // its vertex 1 is our 0
+    }
+    twin.offsets.clear();
+    for (std::size_t i = 0; i <= 16; ++i) twin.offsets.push_back(3 * i);
+    EXPECT_EQ(kind_of(twin), MeshErrorKind::NonManifoldVertex);
+
+    LoadOptions limit;
+    limit.max_faces = 7;
+    EXPECT_EQ(kind_of(octahedron(), limit), MeshErrorKind::TooLarge);
+}
+
+TEST(MeshLoader, MoebiusBandIsNonOrientable) {
+    // A band of 5 quads (10 triangles) with a half twist.
+    const int n = 5;
+    std::vector<double> p;
+    for (int i = 0; i < n; ++i) {
+        const double t = 2 * M_PI * i / n, c = std::cos(t), s = std::sin(t), w = std::cos(t / 2),
+                     h = std::sin(t / 2);
+        for (double side : {-0.3, 0.3}) {
+            const double r = 1 + side * w;
+            p.insert(p.end(), {r * c, r * s, side * h});
+        }
+    }
+    std::vector<std::vector<std::int64_t>> quads;
+    for (int i = 0; i < n; ++i) {
+        const std::int64_t a = 2 * i, b = 2 * i + 1;
+        std::int64_t c = 2 * ((i + 1) % n), d = c + 1;
+        if (i == n - 1) std::swap(c, d);  // the half twist
+        quads.push_back({a, c, d, b});
+    }
+    EXPECT_EQ(kind_of(soup_of(p, quads)), MeshErrorKind::NonOrientable);
+}
+
+TEST(MeshLoader, SharedMoebiusFileIsRefused) {
+    const std::string path = test::shared_mesh("moebius.obj");
+    if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/meshes not present";
+    try {
+        load_mesh(path);
+        FAIL() << "moebius.obj loaded";
+    } catch (const MeshError& e) {
+        EXPECT_EQ(e.kind, MeshErrorKind::NonOrientable) << e.what();
+    }
+}
+
+TEST(MeshLoader, ErrorKindsHaveDistinctNamesAndExitStatuses) {
+    std::set<std::string> names;
+    std::set<int> statuses;
+    for (int k = 0; k <= static_cast<int>(MeshErrorKind::TooLarge); ++k) {
+        names.insert(to_string(static_cast<MeshErrorKind>(k)));
+        statuses.insert(exit_status(static_cast<MeshErrorKind>(k)));
+    }
+    EXPECT_EQ(names.size(), static_cast<std::size_t>(MeshErrorKind::TooLarge) + 1);
+    EXPECT_EQ(statuses.size(), names.size());
+    EXPECT_EQ(statuses.count(0), 0u);
+}
+
+}  // namespace
+}  // namespace holoflow::engine
