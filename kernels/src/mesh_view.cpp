@@ -76,6 +76,9 @@ bool MeshView::is_closed() const {
 MeshView make_mesh_view(PointMatrix V, TriangleMatrix F) {
     HOLOFLOW_REQUIRE(F.size() == 0 || (F.minCoeff() >= 0 && F.maxCoeff() < V.rows()),
                      "face index out of range");
+    for (Index f = 0; f < F.rows(); ++f)
+        HOLOFLOW_REQUIRE(F(f, 0) != F(f, 1) && F(f, 1) != F(f, 2) && F(f, 2) != F(f, 0),
+                         "face " + std::to_string(f) + " repeats a vertex");
     std::vector<Index> twin = pair_halfedges(F, static_cast<Index>(V.rows()));
     return make_mesh_view(std::move(V), std::move(F), std::move(twin));
 }
@@ -97,11 +100,6 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
                          "twin is not an involution at halfedge " + std::to_string(h));
         HOLOFLOW_REQUIRE(m.tail(t) == m.head(h) && m.head(t) == m.tail(h),
                          "twin halfedges are not opposite at halfedge " + std::to_string(h));
-    }
-    for (Index f = 0; f < m.n_faces(); ++f) {
-        const Index a = m.F(f, 0), b = m.F(f, 1), c = m.F(f, 2);
-        HOLOFLOW_REQUIRE(a != b && b != c && c != a,
-                         "face " + std::to_string(f) + " repeats a vertex");
     }
 
     // Edges: one per halfedge pair, represented by the smaller halfedge index.

@@ -72,7 +72,10 @@ const BadFile kBadFiles[] = {
     {"empty.off", "", MeshErrorKind::EmptyFile},
     {"mesh.xyz", "1 2 3\n", MeshErrorKind::UnknownFormat},
     {"huge.off", "OFF\n1000000000000 1 0\n0 0 0\n", MeshErrorKind::HeaderMismatch},
-    {"short.off", "OFF\n4 1 0\n0 0 0\n1 0 0\n", MeshErrorKind::Truncated},
+    {"short.off",
+     "OFF\n4 1 0\n0.000000000 0.000000000 0.000000000\n1.000000000 0.000000000 0.000000000\n"
+     "0.000000000 1.000000000 0.000000000\n",
+     MeshErrorKind::Truncated},
     {"nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n", MeshErrorKind::NonFiniteCoordinate},
     {"range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", MeshErrorKind::IndexOutOfRange},
     {"repeat.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1\n", MeshErrorKind::RepeatedVertex},

@@ -5,6 +5,7 @@
 #include <limits>
 #include <set>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "holoflow/kernels/topology.h"

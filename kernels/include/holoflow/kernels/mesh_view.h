@@ -78,7 +78,8 @@ HalfedgeGroups group_halfedges_by_vertex_pair(const TriangleMatrix& F, Index n_v
 //! \throw InvalidInput naming the first offending edge or vertex otherwise.
 MeshView make_mesh_view(PointMatrix V, TriangleMatrix F);
 
-//! Same with the halfedge pairing given (needed when two edges join one vertex pair).
+//! Same with the halfedge pairing given: needed when two edges join one vertex pair (double
+//! covers) or a face repeats a vertex (intrinsic triangulations after edge flips).
 //! \throw InvalidInput if `twin` is not an involution pairing opposite halfedges.
 MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin);
 
