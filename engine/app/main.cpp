@@ -2,6 +2,7 @@
 // `error: <kind>: <detail>` with a distinct exit status per kind (README "Exit status").
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <new>
@@ -9,7 +10,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/engine/mesh_loader.h"
+#include "holoflow/engine/output.h"
 #include "holoflow/engine/report.h"
 #include "holoflow/kernels/topology.h"
 
@@ -22,6 +25,7 @@ constexpr int kExitUsage = 2;
 constexpr int kExitInvalidInput = 3;
 constexpr int kExitSolverFailure = 4;
 constexpr int kExitOutOfMemory = 5;
+constexpr int kExitOutputError = 6;
 
 int report_error(const std::string& kind, const std::string& detail, int status) {
     std::cerr << "error: " << kind << ": " << detail << std::endl;
@@ -38,6 +42,8 @@ int run_guarded(const std::function<int()>& body) {
         return report_error("invalid_input", e.what(), kExitInvalidInput);
     } catch (const SolverFailure& e) {
         return report_error("solver_failure", e.what(), kExitSolverFailure);
+    } catch (const engine::OutputError& e) {
+        return report_error("output_error", e.what(), kExitOutputError);
     } catch (const std::bad_alloc&) {
         return report_error("out_of_memory", "allocation failed", kExitOutOfMemory);
     } catch (const std::exception& e) {
@@ -78,6 +84,30 @@ int run_info(const MeshArgs& mesh_args, bool json) {
     return 0;
 }
 
+int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const std::string& laplacian,
+                  bool json) {
+    const std::filesystem::path folder(out_dir);
+    engine::prepare_output_folder(folder);  // fail before the work, not after
+    const engine::LoadedMesh loaded = engine::load_mesh(mesh_args.path, mesh_args.options());
+    engine::ConformalOptions options;
+    options.laplacian = laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic
+                                                 : engine::LaplacianKind::IntrinsicDelaunay;
+    const engine::ConformalResult result = engine::compute_conformal(*loaded.mesh, options);
+    nlohmann::json report = engine::conformal_report(result);
+    report["file"] = mesh_args.path;
+    report["laplacian"] = laplacian;
+    engine::write_file_atomic(folder / "uv.obj", engine::format_uv_obj(*loaded.mesh, result));
+    engine::write_file_atomic(folder / "forms", engine::format_forms(result));
+    engine::write_file_atomic(folder / "conformal.json", report.dump(2) + "\n");
+    if (json) std::cout << report.dump(2) << std::endl;
+    else
+        std::cout << "genus " << report["genus"] << ", working genus " << report["working_genus"]
+                  << ", star error " << report["star_square_error"] << ", period symmetry error "
+                  << report["period_symmetry_error"] << "\nwrote " << (folder / "uv.obj").string()
+                  << ", forms, conformal.json\n";
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -90,6 +120,18 @@ int main(int argc, char** argv) {
     CLI::App* info = app.add_subcommand("info", "topology of a mesh file and the repairs made on loading");
     info_mesh.add_to(*info);
     info->add_flag("--json", info_json, "print one JSON object instead of text");
+
+    MeshArgs conformal_mesh;
+    std::string conformal_out, conformal_laplacian = "intrinsic";
+    bool conformal_json = false;
+    CLI::App* conformal = app.add_subcommand(
+        "conformal", "holomorphic 1-form basis, period matrix and the global conformal map");
+    conformal_mesh.add_to(*conformal);
+    conformal->add_option("-o,--output", conformal_out, "output folder")->required();
+    conformal->add_option("--laplacian", conformal_laplacian,
+                          "cotan weights on the intrinsic Delaunay triangulation or the mesh itself")
+        ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
+    conformal->add_flag("--json", conformal_json, "also print conformal.json to stdout");
 
     try {
         app.parse(argc, argv);
@@ -104,5 +146,9 @@ int main(int argc, char** argv) {
     }
 
     if (info->parsed()) return run_guarded([&] { return run_info(info_mesh, info_json); });
+    if (conformal->parsed())
+        return run_guarded([&] {
+            return run_conformal(conformal_mesh, conformal_out, conformal_laplacian, conformal_json);
+        });
     return report_error("usage", "no subcommand", kExitUsage);
 }

@@ -1,0 +1,59 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/double_cover.h"
+#include "holoflow/kernels/holomorphic.h"
+#include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::engine {
+
+enum class LaplacianKind { IntrinsicDelaunay, Extrinsic };
+
+struct ConformalOptions {
+    LaplacianKind laplacian = LaplacianKind::IntrinsicDelaunay;
+};
+
+//! Wall time of each stage in order, milliseconds.
+using StageTimes = std::vector<std::pair<std::string, double>>;
+
+//! Everything the conformal stage computes for one mesh (DESIGN 2.2-2.4).
+struct ConformalResult {
+    int input_genus = 0;
+    bool double_covered = false;
+    std::shared_ptr<const MeshView> surface;       //!< the closed surface worked on
+    std::shared_ptr<const kernels::DoubleCover> cover;  //!< set for open input
+    kernels::HomologyBasis homology;
+    Eigen::MatrixXd harmonic;                //!< #E x 2g omega_i on `surface`'s edges
+    kernels::HodgeStar star;
+    kernels::HolomorphicBasis basis;
+    Eigen::MatrixXcd holomorphic;            //!< #E x g normalised phi_k
+    Eigen::VectorXd form_coefficients;       //!< the chosen tau = sum_i d_i (omega_i + i *omega_i)
+    Eigen::VectorXcd tau;                    //!< #E chosen form
+    kernels::ConformalMap map;
+    kernels::MapQuality quality;
+    double closedness_max = 0;               //!< of the holomorphic forms, relative
+    double coclosedness_max = 0;             //!< of the harmonic forms, relative to the rhs
+    Index intrinsic_flips = 0;
+    Index negative_weights = 0;              //!< cotan weights < 0 in the Laplacian used
+    StageTimes timings_ms;
+};
+
+//! Runs the conformal stage on a validated mesh: double cover for open surfaces, tree-cotree,
+//! closed forms, intrinsic Delaunay (or extrinsic cotan), ONE factorization for all 2g solves,
+//! Hodge star, canonical basis, period matrix, integration of the chosen form.
+//! \throw InvalidInput for closed genus 0, disks and several components; SolverFailure.
+ConformalResult compute_conformal(const MeshView& mesh, const ConformalOptions& options = {});
+
+//! The `conformal.json` object (keys documented in README).
+nlohmann::json conformal_report(const ConformalResult& result);
+
+}  // namespace holoflow::engine

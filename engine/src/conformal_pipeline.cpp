@@ -1,0 +1,186 @@
+#include "holoflow/engine/conformal_pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "holoflow/kernels/cholesky.h"
+#include "holoflow/kernels/cotan_laplacian.h"
+#include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/harmonic.h"
+#include "holoflow/kernels/intrinsic_delaunay.h"
+#include "holoflow/kernels/topology.h"
+
+namespace holoflow::engine {
+namespace {
+
+using Complex = std::complex<double>;
+
+class StageClock {
+ public:
+    explicit StageClock(StageTimes& times) : times_(times) {}
+    void lap(const char* stage) {
+        const auto now = std::chrono::steady_clock::now();
+        times_.emplace_back(stage, std::chrono::duration<double, std::milli>(now - last_).count());
+        last_ = now;
+    }
+
+ private:
+    StageTimes& times_;
+    std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+// eta + d f for vertex functions f (#V x k), along E(e,0) -> E(e,1).
+Eigen::MatrixXd add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f) {
+    Eigen::MatrixXd omega = eta;
+    for (Index e = 0; e < E.rows(); ++e) omega.row(e) += f.row(E(e, 1)) - f.row(E(e, 0));
+    return omega;
+}
+
+}  // namespace
+
+ConformalResult compute_conformal(const MeshView& input, const ConformalOptions& options) {
+    ConformalResult r;
+    StageClock clock(r.timings_ms);
+
+    const kernels::Topology topology = kernels::compute_topology(input);
+    r.input_genus = topology.genus;
+    HOLOFLOW_REQUIRE(topology.components == 1,
+                     "the mesh has " + std::to_string(topology.components) +
+                         " components; use --component largest");
+    if (topology.boundary_loops > 0) {
+        HOLOFLOW_REQUIRE(topology.genus > 0 || topology.boundary_loops > 1,
+                         "a topological disk has no holomorphic 1-form (tip slicing comes with "
+                         "segmentation)");
+        r.cover = std::make_shared<const kernels::DoubleCover>(kernels::double_cover(input));
+        r.surface = std::shared_ptr<const MeshView>(r.cover, &r.cover->mesh);
+        r.double_covered = true;
+        clock.lap("double_cover");
+    } else {
+        HOLOFLOW_REQUIRE(topology.genus > 0,
+                         "a closed genus-0 surface has no holomorphic 1-form (tip slicing "
+                         "comes with segmentation)");
+        r.surface = std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input);
+    }
+    const MeshView& surface = *r.surface;
+
+    r.homology = kernels::compute_homology_basis(surface);
+    clock.lap("cut_graph_and_closed_forms");
+    const Eigen::MatrixXd& eta = r.homology.closed_forms;
+
+    // The Laplacian lives on the intrinsic Delaunay triangulation (or the mesh itself); vertex
+    // functions are shared by both, so the harmonic forms come back to the mesh's edges exactly.
+    kernels::IntrinsicTriangulation intrinsic;
+    const MeshView* laplace_mesh = &surface;
+    const Eigen::MatrixXd* laplace_eta = &eta;
+    std::vector<double> weights;
+    if (options.laplacian == LaplacianKind::IntrinsicDelaunay) {
+        intrinsic = kernels::intrinsic_delaunay(surface, eta);
+        r.intrinsic_flips = intrinsic.flips;
+        laplace_mesh = &intrinsic.mesh;
+        laplace_eta = &intrinsic.forms;
+        clock.lap("intrinsic_delaunay");
+        weights = kernels::cotan_weights_from_lengths(intrinsic.mesh.halfedge_edge,
+                                                      intrinsic.edge_length, intrinsic.mesh.n_edges());
+    } else {
+        weights = kernels::cotan_weights(surface);
+    }
+    r.negative_weights =
+        static_cast<Index>(std::count_if(weights.begin(), weights.end(), [](double w) { return w < 0; }));
+    const std::vector<Index> pinned{r.homology.root};
+    const kernels::LaplacianMatrix L =
+        kernels::assemble_laplacian(surface.n_vertices(), laplace_mesh->E, weights, pinned);
+    clock.lap("laplacian_assembly");
+    const auto symbolic = kernels::CholeskySymbolic::analyse(L);
+    clock.lap("analyse");
+    const auto factor = kernels::CholeskyFactor::factorize(symbolic, L);
+    clock.lap("factorise");
+
+    // All 2g right-hand sides in one solve: L f = -delta(eta).
+    Eigen::MatrixXd rhs =
+        -kernels::codifferential(surface.n_vertices(), laplace_mesh->E, weights, *laplace_eta);
+    for (Index p : pinned) rhs.row(p).setZero();
+    const Eigen::MatrixXd potential = factor->solve(rhs);
+    const Eigen::MatrixXd laplace_omega = add_gradient(laplace_mesh->E, *laplace_eta, potential);
+    r.harmonic = add_gradient(surface.E, eta, potential);
+    clock.lap("solves");
+    {
+        Eigen::MatrixXd residual =
+            kernels::codifferential(surface.n_vertices(), laplace_mesh->E, weights, laplace_omega);
+        for (Index p : pinned) residual.row(p).setZero();  // the pinned row carries the balance
+        const double scale = rhs.cwiseAbs().maxCoeff();
+        r.coclosedness_max = scale > 0 ? residual.cwiseAbs().maxCoeff() / scale : 0;
+    }
+
+    r.star = kernels::hodge_star(*laplace_mesh, weights, laplace_omega);
+    clock.lap("hodge_star");
+    r.basis = kernels::holomorphic_basis(r.star);
+    r.holomorphic = kernels::holomorphic_forms(r.harmonic, r.star, r.basis);
+    r.closedness_max = kernels::closedness_error(surface, r.holomorphic);
+    clock.lap("holomorphic_basis");
+
+    r.form_coefficients =
+        r.double_covered
+            ? kernels::even_form_coefficients(kernels::involution_matrix(*r.cover, r.homology))
+            : kernels::generic_form_coefficients(r.harmonic.cols());
+    const Eigen::VectorXd conjugate = r.star.star.transpose() * r.form_coefficients;
+    r.tau = (r.harmonic * r.form_coefficients).cast<Complex>() +
+            Complex(0, 1) * (r.harmonic * conjugate).cast<Complex>();
+    r.map = kernels::integrate_form(surface, r.homology, r.tau);
+    r.quality = kernels::map_quality(surface, r.map);
+    clock.lap("integration");
+
+    if (!r.harmonic.allFinite() || !r.tau.allFinite())
+        throw SolverFailure("conformal: non-finite values in the harmonic forms");
+    return r;
+}
+
+nlohmann::json conformal_report(const ConformalResult& r) {
+    const int g = r.basis.genus;
+    nlohmann::json period = nlohmann::json::array();
+    for (int i = 0; i < g; ++i) {
+        nlohmann::json row = nlohmann::json::array();
+        for (int j = 0; j < g; ++j)
+            row.push_back({r.basis.period_matrix(i, j).real(), r.basis.period_matrix(i, j).imag()});
+        period.push_back(row);
+    }
+    nlohmann::json timings = nlohmann::json::object();
+    double total = 0;
+    for (const auto& [stage, ms] : r.timings_ms) {
+        timings[stage] = ms;
+        total += ms;
+    }
+    timings["total"] = total;
+    nlohmann::json j = {
+        {"genus", r.input_genus},
+        {"working_genus", g},
+        {"double_covered", r.double_covered},
+        {"vertices", r.surface->n_vertices()},
+        {"faces", r.surface->n_faces()},
+        {"period_matrix", period},
+        {"wedge_det", r.star.wedge_det},
+        {"wedge_integrality_error", r.star.wedge_integrality_error},
+        {"star_square_error", r.star.star_square_error},
+        {"star_isometry_error", r.star.star_isometry_error},
+        {"period_symmetry_error", r.basis.period_symmetry_error},
+        {"period_im_min_eigenvalue", r.basis.period_im_min_eigenvalue},
+        {"closedness_max", r.closedness_max},
+        {"coclosedness_max", r.coclosedness_max},
+        {"flipped_uv_triangles", r.quality.flipped},
+        {"degenerate_uv_triangles", r.quality.degenerate},
+        {"conformal_distortion",
+         {{"mean", r.quality.distortion_mean},
+          {"p95", r.quality.distortion_p95},
+          {"max", r.quality.distortion_max}}},
+        {"intrinsic_flips", r.intrinsic_flips},
+        {"negative_cotan_weights", r.negative_weights},
+        {"timings_ms", timings},
+    };
+    if (g == 1) {
+        const Complex m = kernels::reduce_modulus(r.basis.period_matrix(0, 0));
+        j["reduced_modulus"] = {m.real(), m.imag()};
+    }
+    return j;
+}
+
+}  // namespace holoflow::engine

@@ -1,0 +1,105 @@
+#include "holoflow/engine/output.h"
+
+#include <charconv>
+#include <cstdio>
+#include <fstream>
+#include <unistd.h>
+
+namespace holoflow::engine {
+namespace {
+
+// Shortest text that reads back to the same double.
+void append_number(std::string& out, double x) {
+    char buffer[32];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, x);
+    out.append(buffer, result.ptr);
+}
+
+}  // namespace
+
+void prepare_output_folder(const std::filesystem::path& folder) {
+    std::error_code ec;
+    std::filesystem::create_directories(folder, ec);
+    if (ec || !std::filesystem::is_directory(folder))
+        throw OutputError("cannot create output folder '" + folder.string() + "': " +
+                          (ec ? ec.message() : "not a directory"));
+    if (::access(folder.c_str(), W_OK) != 0)
+        throw OutputError("output folder '" + folder.string() + "' is not writable");
+}
+
+void write_file_atomic(const std::filesystem::path& path, const std::string& content) {
+    const std::filesystem::path temporary =
+        path.parent_path() / ("." + path.filename().string() + ".tmp" + std::to_string(::getpid()));
+    {
+        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+        out.write(content.data(), static_cast<std::streamsize>(content.size()));
+        out.flush();
+        if (!out) {
+            std::error_code ignored;
+            std::filesystem::remove(temporary, ignored);
+            throw OutputError("cannot write '" + path.string() + "' (disk full or not writable)");
+        }
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) {
+        std::filesystem::remove(temporary, ec);
+        throw OutputError("cannot move the finished '" + path.string() + "' into place");
+    }
+}
+
+std::string format_uv_obj(const MeshView& input, const ConformalResult& result) {
+    const MeshView& surface = *result.surface;
+    std::string out = "# holoflow uv map of the chosen holomorphic 1-form; vt per wedge\n";
+    for (Index v = 0; v < input.n_vertices(); ++v) {
+        out += "v";
+        for (int k = 0; k < 3; ++k) {
+            out += ' ';
+            append_number(out, input.V(v, k));
+        }
+        out += '\n';
+    }
+    for (const auto& z : result.map.wedge_uv) {
+        out += "vt ";
+        append_number(out, z.real());
+        out += ' ';
+        append_number(out, z.imag());
+        out += '\n';
+    }
+    // Cover faces f < #F(input) are the input faces with the same vertex numbers.
+    for (Index f = 0; f < input.n_faces(); ++f) {
+        out += 'f';
+        for (int k = 0; k < 3; ++k) {
+            out += ' ' + std::to_string(surface.F(f, k) + 1) + '/' +
+                   std::to_string(result.map.corner_wedge[3 * f + k] + 1);
+        }
+        out += '\n';
+    }
+    return out;
+}
+
+std::string format_forms(const ConformalResult& result) {
+    const MeshView& surface = *result.surface;
+    const Eigen::Index n = result.harmonic.cols();
+    const Eigen::MatrixXd conjugate = result.harmonic * result.star.star.transpose();
+    std::string out = "# holoflow forms 1\n"
+                      "# harmonic basis omega_1..omega_2g dual to the generator loops, then their "
+                      "Hodge stars *omega_1..*omega_2g\n"
+                      "# one line per edge of the working surface: tail head values...\n";
+    out += "genus " + std::to_string(n / 2) + " edges " + std::to_string(surface.n_edges()) + "\n";
+    for (Index e = 0; e < surface.n_edges(); ++e) {
+        out += std::to_string(surface.E(e, 0)) + ' ' + std::to_string(surface.E(e, 1));
+        for (Eigen::Index i = 0; i < n; ++i) {
+            out += ' ';
+            append_number(out, result.harmonic(e, i));
+        }
+        for (Eigen::Index i = 0; i < n; ++i) {
+            out += ' ';
+            append_number(out, conjugate(e, i));
+        }
+        out += '\n';
+    }
+    return out;
+}
+
+}  // namespace holoflow::engine

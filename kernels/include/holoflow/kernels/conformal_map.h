@@ -1,0 +1,42 @@
+#pragma once
+
+#include <complex>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::kernels {
+
+//! A holomorphic 1-form integrated over the fundamental domain.
+struct ConformalMap {
+    std::vector<std::complex<double>> wedge_uv;  //!< one complex coordinate per wedge
+    std::vector<Index> corner_wedge;             //!< #H (corner h at tail(h)) -> wedge
+    std::vector<double> conformal_factor;        //!< #V: mean over the one-ring of |tau(e)|^2/|e|^2
+    std::complex<double> corner_uv(Index h) const { return wedge_uv[corner_wedge[h]]; }
+};
+
+//! \brief Integrates the form `tau` (one complex value per edge, along E(e,0) -> E(e,1)) by a
+//! walk over the faces of the fundamental domain from face 0 (uv 0 at its first corner); across
+//! a cut edge the two sides differ by a period. \pre closed form, homology of this mesh.
+//! \throw InvalidInput on size mismatch.
+ConformalMap integrate_form(const MeshView& mesh, const HomologyBasis& homology,
+                            const Eigen::VectorXcd& tau);
+
+//! Quality of a map given per corner: flips and the conformal distortion per face, i.e. the
+//! ratio of the singular values of the affine map from the 3D triangle to its image (1 = conformal).
+struct MapQuality {
+    Index flipped = 0;     //!< image triangles with negative signed area
+    Index degenerate = 0;  //!< image triangles with zero area (relative to their edge lengths)
+    double distortion_mean = 0, distortion_p95 = 0, distortion_max = 0;  //!< over non-degenerate faces
+    std::vector<double> face_distortion;  //!< #F (infinity on degenerate faces)
+};
+MapQuality map_quality(const MeshView& mesh, const ConformalMap& map);
+
+//! Closedness of complex forms: max over faces of |sum of the three edge values| divided by the
+//! largest |value| on any edge.
+double closedness_error(const MeshView& mesh, const Eigen::MatrixXcd& forms);
+
+}  // namespace holoflow::kernels

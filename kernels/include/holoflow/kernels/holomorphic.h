@@ -1,0 +1,77 @@
+#pragma once
+
+#include <complex>
+#include <span>
+
+#include <Eigen/Core>
+
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::kernels {
+
+//! Discrete Hodge star on the harmonic basis (DESIGN 2.3): *omega_i = sum_j star(i, j) omega_j.
+struct HodgeStar {
+    Eigen::MatrixXd wedge;  //!< A(k, j) = integral of omega_k ^ omega_j (integer, unimodular)
+    Eigen::MatrixXd inner;  //!< B(k, i) = <omega_k, omega_i> = sum_e w_e omega_k(e) omega_i(e)
+    Eigen::MatrixXd star;   //!< C with C^T = A^{-1} B
+    double wedge_det = 0;              //!< det A (+-1 for a homology basis)
+    double wedge_integrality_error = 0;  //!< max |A - round(A)|
+    double star_square_error = 0;      //!< ||C^2 + I||_F / ||I||_F
+    double star_isometry_error = 0;    //!< ||C^T A C - A||_F / ||A||_F
+};
+
+//! \brief Hodge star matrix of harmonic 1-forms `omega` (#E x 2g on `mesh`, weights `w` per
+//! edge): A and B as products over the edges (no (2g)^2 passes over faces), C^T = A^{-1} B.
+//! \pre 2g >= 2 columns, sizes match.  \throw InvalidInput; SolverFailure if A is singular.
+HodgeStar hodge_star(const MeshView& mesh, std::span<const double> w, const Eigen::MatrixXd& omega);
+
+//! a-normalised holomorphic basis and period matrix on a canonical homology basis.
+struct HolomorphicBasis {
+    int genus = 0;
+    //! Canonical cycles as integer combinations of the generator loops: cycle k (a_1..a_g,
+    //! b_1..b_g) = sum_j canonical(j, k) loop_j; intersection matrix standard symplectic.
+    Eigen::MatrixXi canonical;
+    //! phi_k = sum_i coefficients(i, k) (omega_i + i *omega_i), 2g x g; integral over a_j of
+    //! phi_k = delta_jk.
+    Eigen::MatrixXcd coefficients;
+    Eigen::MatrixXcd period_matrix;      //!< Omega(i, j) = integral over b_j of phi_i
+    double period_symmetry_error = 0;    //!< ||Omega - Omega^T||_F / ||Omega||_F
+    double period_im_min_eigenvalue = 0; //!< smallest eigenvalue of Im Omega (> 0)
+};
+
+//! \brief Canonical basis by symplectic reduction of the integer intersection matrix -A^{-1}
+//! of the loops, then a-normalisation and the period matrix, from the Hodge star alone (the
+//! periods of omega_i over loop j are delta_ij).  \throw InvalidInput if A is not unimodular.
+HolomorphicBasis holomorphic_basis(const HodgeStar& star);
+
+//! Values on edges (#E x g complex) of the normalised forms phi_k for harmonic forms `omega`
+//! (#E x 2g) of any triangulation carrying the same cohomology basis.
+Eigen::MatrixXcd holomorphic_forms(const Eigen::MatrixXd& omega, const HodgeStar& star,
+                                   const HolomorphicBasis& basis);
+
+//! Genus-1 period reduced to the standard fundamental domain of SL(2, Z):
+//! |Re| <= 1/2, |tau| >= 1 (Im tau > 0 expected). Torus moduli compare after this.
+std::complex<double> reduce_modulus(std::complex<double> tau);
+
+}  // namespace holoflow::kernels
+
+namespace holoflow::kernels {
+
+struct DoubleCover;
+struct HomologyBasis;
+
+//! Deterministic, generic real coefficients for a combination of n basis forms (no two equal,
+//! none zero, no rational relation of small height), so the chosen form has no special symmetry.
+Eigen::VectorXd generic_form_coefficients(Eigen::Index n);
+
+//! \brief Action of the cover's involution s on cohomology in the dual basis of the generator
+//! loops: S(i, j) = integral of eta_i over s(loop_j), so s*omega_i = sum_j S(i, j) omega_j.
+//! Integer and S^2 = I. \pre homology computed on cover.mesh.
+Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis& homology);
+
+//! Coefficients d (sum_i d_i omega_i) of a generic form even under s: d = (I + S^T) x with x
+//! generic, so S^T d = d. Its holomorphic completion satisfies s*tau = conj(tau) and the fixed
+//! set (the original boundary) is a horizontal trajectory.
+Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution);
+
+}  // namespace holoflow::kernels

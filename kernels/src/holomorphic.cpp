@@ -1,0 +1,145 @@
+#include "holoflow/kernels/holomorphic.h"
+
+#include <cmath>
+#include <string>
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+
+#include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/double_cover.h"
+#include "holoflow/kernels/homology.h"
+
+namespace holoflow::kernels {
+
+HodgeStar hodge_star(const MeshView& mesh, std::span<const double> w, const Eigen::MatrixXd& omega) {
+    const Eigen::Index k = omega.cols();
+    HOLOFLOW_REQUIRE(k >= 2 && k % 2 == 0, "need 2g >= 2 harmonic forms");
+    HOLOFLOW_REQUIRE(omega.rows() == mesh.n_edges() && static_cast<Index>(w.size()) == mesh.n_edges(),
+                     "forms and weights must have one row per edge");
+    HodgeStar h;
+    h.wedge = wedge_matrix(mesh, omega);
+    const Eigen::Map<const Eigen::VectorXd> weight(w.data(), static_cast<Eigen::Index>(w.size()));
+    h.inner = omega.transpose() * weight.asDiagonal() * omega;
+    h.inner = 0.5 * (h.inner + h.inner.transpose()).eval();  // exact symmetry, order-independent
+
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu(h.wedge);
+    h.wedge_det = lu.determinant();
+    if (!lu.isInvertible() || !std::isfinite(h.wedge_det))
+        throw SolverFailure("hodge_star: wedge matrix is singular (det " +
+                            std::to_string(h.wedge_det) + "): forms are not a cohomology basis");
+    h.star = lu.solve(h.inner).transpose();
+    if (!h.star.allFinite()) throw SolverFailure("hodge_star: non-finite star matrix");
+
+    h.wedge_integrality_error = (h.wedge - h.wedge.array().round().matrix()).cwiseAbs().maxCoeff();
+    const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(k, k);
+    h.star_square_error = (h.star * h.star + I).norm() / I.norm();
+    h.star_isometry_error =
+        (h.star.transpose() * h.wedge * h.star - h.wedge).norm() / h.wedge.norm();
+    return h;
+}
+
+HolomorphicBasis holomorphic_basis(const HodgeStar& star) {
+    const Eigen::Index n = star.wedge.rows(), g = n / 2;
+    HOLOFLOW_REQUIRE(star.wedge_integrality_error < 1e-6 && std::abs(std::abs(star.wedge_det) - 1) < 1e-6,
+                     "wedge matrix is not integral unimodular (det " +
+                         std::to_string(star.wedge_det) + ")");
+    // Loops and their dual forms: A = -I^{-1} for the loops' intersection matrix I.
+    const Eigen::MatrixXi A = star.wedge.array().round().cast<int>();
+    const Eigen::MatrixXi intersection =
+        (-A.cast<double>().inverse()).array().round().cast<int>();
+    HolomorphicBasis b;
+    b.genus = static_cast<int>(g);
+    b.canonical = symplectic_basis(intersection);
+
+    // Periods of tau_i = omega_i + i *omega_i over loop m are delta_im + i C(i, m).
+    using Complex = std::complex<double>;
+    const Eigen::MatrixXcd loop_periods =
+        Eigen::MatrixXd::Identity(n, n).cast<Complex>() + Complex(0, 1) * star.star.cast<Complex>();
+    const Eigen::MatrixXcd periods = loop_periods * b.canonical.cast<double>().cast<Complex>();
+    const Eigen::MatrixXcd a_periods = periods.leftCols(g).transpose();  // g x 2g
+    // The 2g forms tau_i span the g-dimensional space only up to discretisation error: take the
+    // least-norm combination with the required a-periods.
+    const Eigen::MatrixXcd gram = a_periods * a_periods.adjoint();
+    b.coefficients = a_periods.adjoint() * gram.fullPivLu().solve(Eigen::MatrixXcd::Identity(g, g));
+    b.period_matrix = b.coefficients.transpose() * periods.rightCols(g);
+    if (!b.period_matrix.allFinite()) throw SolverFailure("holomorphic_basis: non-finite periods");
+
+    b.period_symmetry_error =
+        (b.period_matrix - b.period_matrix.transpose()).norm() / b.period_matrix.norm();
+    const Eigen::MatrixXd im = b.period_matrix.imag();
+    b.period_im_min_eigenvalue =
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (im + im.transpose()))
+            .eigenvalues()
+            .minCoeff();
+    return b;
+}
+
+Eigen::MatrixXcd holomorphic_forms(const Eigen::MatrixXd& omega, const HodgeStar& star,
+                                   const HolomorphicBasis& basis) {
+    using Complex = std::complex<double>;
+    const Eigen::Index n = omega.cols();
+    HOLOFLOW_REQUIRE(n == star.star.rows(), "forms do not match the Hodge star");
+    // tau = omega (I + i C^T); phi = tau * coefficients.
+    const Eigen::MatrixXcd mix =
+        (Eigen::MatrixXd::Identity(n, n).cast<Complex>() +
+         Complex(0, 1) * star.star.transpose().cast<Complex>()) *
+        basis.coefficients;
+    return omega.cast<Complex>() * mix;
+}
+
+std::complex<double> reduce_modulus(std::complex<double> tau) {
+    for (int guard = 0; guard < 1000; ++guard) {
+        tau -= std::round(tau.real());
+        if (std::norm(tau) >= 1 - 1e-15) break;
+        tau = -1.0 / tau;
+    }
+    return tau;
+}
+
+}  // namespace holoflow::kernels
+
+namespace holoflow::kernels {
+
+Eigen::VectorXd generic_form_coefficients(Eigen::Index n) {
+    // Golden-angle phases: distinct, nonzero, and free of small rational relations.
+    Eigen::VectorXd d(n);
+    for (Eigen::Index i = 0; i < n; ++i) d(i) = 1.5 + std::cos(2.399963229728653 * static_cast<double>(i + 1));
+    return d;
+}
+
+Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis& homology) {
+    const MeshView& mesh = cover.mesh;
+    HOLOFLOW_REQUIRE(static_cast<Index>(homology.closed_forms.rows()) == mesh.n_edges(),
+                     "homology basis belongs to another mesh");
+    // The image of halfedge x->y is the halfedge s(x)->s(y): the twin of the halfedge
+    // s(y)->s(x) of the mirror face (which has the reversed orientation).
+    auto mirror = [&](Index h) {
+        const Index f = cover.face_involution[MeshView::face(h)];
+        const Index sx = cover.vertex_involution[mesh.tail(h)], sy = cover.vertex_involution[mesh.head(h)];
+        for (int k = 0; k < 3; ++k) {
+            const Index m = 3 * f + k;
+            if (mesh.tail(m) == sy && mesh.head(m) == sx) return mesh.twin[m];
+        }
+        throw InvalidInput("involution_matrix: cover faces do not mirror each other");
+    };
+    const Eigen::Index n = homology.closed_forms.cols();
+    Eigen::MatrixXi S(n, n);
+    std::vector<Index> image;
+    for (Eigen::Index j = 0; j < n; ++j) {
+        const auto& loop = homology.loops[static_cast<std::size_t>(j)];
+        image.resize(loop.size());
+        for (std::size_t k = 0; k < loop.size(); ++k) image[k] = mirror(loop[k]);
+        const Eigen::VectorXd periods = integrate_along(mesh, homology.closed_forms, image);
+        for (Eigen::Index i = 0; i < n; ++i) S(i, j) = static_cast<int>(std::lround(periods(i)));
+    }
+    return S;
+}
+
+Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution) {
+    const Eigen::Index n = involution.rows();
+    const Eigen::MatrixXd plus = Eigen::MatrixXd::Identity(n, n) + involution.transpose().cast<double>();
+    return plus * generic_form_coefficients(n);
+}
+
+}  // namespace holoflow::kernels

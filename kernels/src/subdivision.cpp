@@ -1,0 +1,54 @@
+#include "holoflow/kernels/subdivision.h"
+
+namespace holoflow::kernels {
+
+// Input face f = (c0, c1, c2) with halfedge k running c_k -> c_{k+1} and midpoint m_k on it.
+// Output face 4f + k = (c_k, m_k, m_{k+2}) has halfedges
+//   12f + 3k     : c_k -> m_k        first half of input halfedge k
+//   12f + 3k + 1 : m_k -> m_{k+2}    inner, opposite the middle face
+//   12f + 3k + 2 : m_{k+2} -> c_k    second half of input halfedge k + 2
+// and the middle face 4f + 3 = (m0, m1, m2) has halfedge 12f + 9 + j running m_j -> m_{j+1}.
+MeshView subdivide_midpoint(const MeshView& mesh) {
+    const Index n_v = mesh.n_vertices(), n_e = mesh.n_edges(), n_f = mesh.n_faces();
+    const Index n_h = mesh.n_halfedges();
+
+    PointMatrix V(n_v + n_e, 3);
+    V.topRows(n_v) = mesh.V;
+    for (Index e = 0; e < n_e; ++e)
+        V.row(n_v + e) = 0.5 * (mesh.V.row(mesh.E(e, 0)) + mesh.V.row(mesh.E(e, 1)));
+
+    TriangleMatrix F(4 * n_f, 3);
+    for (Index f = 0; f < n_f; ++f) {
+        Index m[3];
+        for (Index k = 0; k < 3; ++k) m[k] = n_v + mesh.halfedge_edge[3 * f + k];
+        for (Index k = 0; k < 3; ++k) {
+            F(4 * f + k, 0) = mesh.F(f, k);
+            F(4 * f + k, 1) = m[k];
+            F(4 * f + k, 2) = m[(k + 2) % 3];
+            F(4 * f + 3, k) = m[k];
+        }
+    }
+
+    // Halves of input halfedge h = 3f + k, in the output numbering above.
+    auto first_half = [](Index h) { return 12 * (h / 3) + 3 * (h % 3); };
+    auto second_half = [](Index h) { return 12 * (h / 3) + 3 * ((h % 3 + 1) % 3) + 2; };
+
+    std::vector<Index> twin(12 * static_cast<std::size_t>(n_f), kNoHalfedge);
+    for (Index h = 0; h < n_h; ++h) {
+        const Index t = mesh.twin[h];
+        if (t == kNoHalfedge) continue;
+        twin[first_half(h)] = second_half(t);
+        twin[second_half(h)] = first_half(t);
+    }
+    for (Index f = 0; f < n_f; ++f) {
+        for (Index k = 0; k < 3; ++k) {
+            const Index inner = 12 * f + 3 * k + 1;
+            const Index middle = 12 * f + 9 + (k + 2) % 3;  // m_{k+2} -> m_k
+            twin[inner] = middle;
+            twin[middle] = inner;
+        }
+    }
+    return make_mesh_view(std::move(V), std::move(F), std::move(twin));
+}
+
+}  // namespace holoflow::kernels
