@@ -16,6 +16,8 @@ namespace {
 
 using Complex = std::complex<double>;
 
+constexpr double kNegativeWeightTol = 1e-12;
+
 class StageClock {
  public:
     explicit StageClock(StageTimes& times) : times_(times) {}
@@ -66,7 +68,13 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
 
     r.homology = kernels::compute_homology_basis(surface);
     clock.lap("cut_graph_and_closed_forms");
-    const Eigen::MatrixXd& eta = r.homology.closed_forms;
+    if (options.closed_forms) {
+        HOLOFLOW_REQUIRE(!r.double_covered, "given closed forms need closed input");
+        HOLOFLOW_REQUIRE(options.closed_forms->rows() == surface.n_edges() &&
+                             options.closed_forms->cols() == r.homology.closed_forms.cols(),
+                         "given closed forms must be #E x 2g");
+    }
+    const Eigen::MatrixXd& eta = options.closed_forms ? *options.closed_forms : r.homology.closed_forms;
 
     // The Laplacian lives on the intrinsic Delaunay triangulation (or the mesh itself); vertex
     // functions are shared by both, so the harmonic forms come back to the mesh's edges exactly.
@@ -85,8 +93,13 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
     } else {
         weights = kernels::cotan_weights(surface);
     }
-    r.negative_weights =
-        static_cast<Index>(std::count_if(weights.begin(), weights.end(), [](double w) { return w < 0; }));
+    {
+        // Cocircular quads (rectangles in CAD meshes) give weights of -1e-15 by rounding.
+        double scale = 0;
+        for (double w : weights) scale = std::max(scale, std::abs(w));
+        r.negative_weights = static_cast<Index>(std::count_if(
+            weights.begin(), weights.end(), [&](double w) { return w < -kNegativeWeightTol * scale; }));
+    }
     const std::vector<Index> pinned{r.homology.root};
     const kernels::LaplacianMatrix L =
         kernels::assemble_laplacian(surface.n_vertices(), laplace_mesh->E, weights, pinned);
@@ -127,7 +140,12 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
     r.tau = (r.harmonic * r.form_coefficients).cast<Complex>() +
             Complex(0, 1) * (r.harmonic * conjugate).cast<Complex>();
     r.map = kernels::integrate_form(surface, r.homology, r.tau);
-    r.quality = kernels::map_quality(surface, r.map);
+    const Eigen::VectorXcd laplace_tau = (laplace_omega * r.form_coefficients).cast<Complex>() +
+                                         Complex(0, 1) * (laplace_omega * conjugate).cast<Complex>();
+    r.quality = kernels::map_quality(
+        *laplace_mesh,
+        laplace_mesh == &surface ? kernels::edge_lengths(surface) : intrinsic.edge_length, laplace_tau);
+    r.input_mesh_quality = kernels::map_quality(surface, kernels::edge_lengths(surface), r.tau);
     clock.lap("integration");
 
     if (!r.harmonic.allFinite() || !r.tau.allFinite())
@@ -168,6 +186,11 @@ nlohmann::json conformal_report(const ConformalResult& r) {
         {"coclosedness_max", r.coclosedness_max},
         {"flipped_uv_triangles", r.quality.flipped},
         {"degenerate_uv_triangles", r.quality.degenerate},
+        {"input_mesh_flipped_uv_triangles", r.input_mesh_quality.flipped},
+        {"input_mesh_conformal_distortion",
+         {{"mean", r.input_mesh_quality.distortion_mean},
+          {"p95", r.input_mesh_quality.distortion_p95},
+          {"max", r.input_mesh_quality.distortion_max}}},
         {"conformal_distortion",
          {{"mean", r.quality.distortion_mean},
           {"p95", r.quality.distortion_p95},

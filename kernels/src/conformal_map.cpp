@@ -82,35 +82,43 @@ ConformalMap integrate_form(const MeshView& mesh, const HomologyBasis& homology,
     return map;
 }
 
-MapQuality map_quality(const MeshView& mesh, const ConformalMap& map) {
+std::vector<double> edge_lengths(const MeshView& mesh) {
+    std::vector<double> length(mesh.n_edges());
+    for (Index e = 0; e < mesh.n_edges(); ++e)
+        length[e] = (mesh.V.row(mesh.E(e, 0)) - mesh.V.row(mesh.E(e, 1))).norm();
+    return length;
+}
+
+MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
+                       const Eigen::VectorXcd& tau) {
+    HOLOFLOW_REQUIRE(static_cast<Index>(edge_length.size()) == mesh.n_edges() &&
+                         tau.size() == mesh.n_edges(),
+                     "lengths and form must have one value per edge");
     MapQuality q;
     q.face_distortion.assign(mesh.n_faces(), std::numeric_limits<double>::infinity());
     std::vector<double> finite;
     finite.reserve(mesh.n_faces());
     for (Index f = 0; f < mesh.n_faces(); ++f) {
-        const Eigen::Vector3d p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)),
-                              p2 = mesh.V.row(mesh.F(f, 2));
-        // Triangle in its own orthonormal frame: p0 at 0, p1 on the x axis.
-        const Eigen::Vector3d e1 = p1 - p0, e2 = p2 - p0;
-        const double l1 = e1.norm();
-        const Eigen::Vector3d x = e1 / l1;
-        const Eigen::Vector3d n = e1.cross(e2);
-        const Eigen::Vector3d y = n.cross(e1).normalized();
-        Eigen::Matrix2d S;  // source edge vectors as columns
-        S << l1, e2.dot(x), 0, e2.dot(y);
-        const Complex z0 = map.corner_uv(3 * f), z1 = map.corner_uv(3 * f + 1),
-                      z2 = map.corner_uv(3 * f + 2);
-        Eigen::Matrix2d T;  // image edge vectors as columns
-        T << (z1 - z0).real(), (z2 - z0).real(), (z1 - z0).imag(), (z2 - z0).imag();
+        const Index h0 = 3 * f, h1 = 3 * f + 1, h2 = 3 * f + 2;
+        // Source triangle laid out from its lengths: corner 0 at 0, corner 1 on the x axis.
+        const double a = edge_length[mesh.halfedge_edge[h0]], b = edge_length[mesh.halfedge_edge[h1]],
+                     c = edge_length[mesh.halfedge_edge[h2]];
+        const double x2 = (a * a + c * c - b * b) / (2 * a);
+        const double y2 = std::sqrt(std::max(0.0, c * c - x2 * x2));
+        Eigen::Matrix2d S;  // source edge vectors corner0->corner1, corner0->corner2 as columns
+        S << a, x2, 0, y2;
+        const Complex t0 = form_along(mesh, tau, h0), t2 = -form_along(mesh, tau, h2);
+        Eigen::Matrix2d T;  // their images
+        T << t0.real(), t2.real(), t0.imag(), t2.imag();
         const double image_area = 0.5 * T.determinant();
-        const double scale = std::max({std::norm(z1 - z0), std::norm(z2 - z0), std::norm(z2 - z1)});
-        if (!(std::abs(image_area) > 1e-14 * scale)) {
+        const Complex t1 = form_along(mesh, tau, h1);
+        const double scale = std::max({std::norm(t0), std::norm(t1), std::norm(t2)});
+        if (!(std::abs(image_area) > 1e-14 * scale) || !(y2 > 0)) {
             ++q.degenerate;
             continue;
         }
         if (image_area < 0) ++q.flipped;
-        const Eigen::Matrix2d J = T * S.inverse();
-        const Eigen::JacobiSVD<Eigen::Matrix2d> svd(J);
+        const Eigen::JacobiSVD<Eigen::Matrix2d> svd(T * S.inverse());
         const double d = svd.singularValues()(0) / svd.singularValues()(1);
         q.face_distortion[f] = d;
         finite.push_back(d);

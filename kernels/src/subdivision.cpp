@@ -52,3 +52,40 @@ MeshView subdivide_midpoint(const MeshView& mesh) {
 }
 
 }  // namespace holoflow::kernels
+
+namespace holoflow::kernels {
+
+Eigen::MatrixXd subdivide_forms_midpoint(const MeshView& mesh, const MeshView& fine,
+                                         const Eigen::MatrixXd& forms) {
+    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(), "forms must have one row per edge");
+    HOLOFLOW_REQUIRE(fine.n_faces() == 4 * mesh.n_faces() &&
+                         fine.n_vertices() == mesh.n_vertices() + mesh.n_edges(),
+                     "fine mesh is not the midpoint subdivision of mesh");
+    const Eigen::Index k = forms.cols();
+    Eigen::MatrixXd out = Eigen::MatrixXd::Zero(fine.n_edges(), k);
+    Eigen::MatrixXd potential(fine.n_vertices(), k);  // per face, only its six vertices are used
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        // Potential at the corners by walking the face's halfedges.
+        Eigen::RowVectorXd value = Eigen::RowVectorXd::Zero(k);
+        for (int c = 0; c < 3; ++c) {
+            const Index h = 3 * f + c;
+            potential.row(mesh.tail(h)) = value;
+            value += static_cast<double>(mesh.edge_sign(h)) * forms.row(mesh.halfedge_edge[h]);
+        }
+        for (int c = 0; c < 3; ++c) {
+            const Index h = 3 * f + c;
+            potential.row(mesh.n_vertices() + mesh.halfedge_edge[h]) =
+                0.5 * (potential.row(mesh.tail(h)) + potential.row(mesh.head(h)));
+        }
+        for (Index child = 4 * f; child < 4 * f + 4; ++child)
+            for (int c = 0; c < 3; ++c) {
+                const Index h = 3 * child + c;
+                // Both faces of an edge write the same value: the form is closed.
+                out.row(fine.halfedge_edge[h]) = static_cast<double>(fine.edge_sign(h)) *
+                             (potential.row(fine.head(h)) - potential.row(fine.tail(h)));
+            }
+    }
+    return out;
+}
+
+}  // namespace holoflow::kernels

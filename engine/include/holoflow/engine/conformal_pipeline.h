@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -20,6 +21,9 @@ enum class LaplacianKind { IntrinsicDelaunay, Extrinsic };
 
 struct ConformalOptions {
     LaplacianKind laplacian = LaplacianKind::IntrinsicDelaunay;
+    //! Closed input only: a cohomology basis (#E x 2g closed forms) to use instead of the
+    //! tree-cotree one, e.g. carried from a coarser mesh so that period matrices compare.
+    std::optional<Eigen::MatrixXd> closed_forms;
 };
 
 //! Wall time of each stage in order, milliseconds.
@@ -39,7 +43,10 @@ struct ConformalResult {
     Eigen::VectorXd form_coefficients;       //!< the chosen tau = sum_i d_i (omega_i + i *omega_i)
     Eigen::VectorXcd tau;                    //!< #E chosen form
     kernels::ConformalMap map;
+    //! Quality on the triangulation the Laplacian was built on (where the discrete map is
+    //! harmonic: the intrinsic Delaunay one by default) and on the input mesh (uv.obj).
     kernels::MapQuality quality;
+    kernels::MapQuality input_mesh_quality;
     double closedness_max = 0;               //!< of the holomorphic forms, relative
     double coclosedness_max = 0;             //!< of the harmonic forms, relative to the rhs
     Index intrinsic_flips = 0;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <complex>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -25,15 +26,22 @@ struct ConformalMap {
 ConformalMap integrate_form(const MeshView& mesh, const HomologyBasis& homology,
                             const Eigen::VectorXcd& tau);
 
-//! Quality of a map given per corner: flips and the conformal distortion per face, i.e. the
-//! ratio of the singular values of the affine map from the 3D triangle to its image (1 = conformal).
+//! Quality of the piecewise-linear map whose edge vectors are a closed complex form `tau` on a
+//! triangulation with the given edge lengths (intrinsic or from positions): image triangles need
+//! no integration, so this works on any triangulation, cut or not.
 struct MapQuality {
     Index flipped = 0;     //!< image triangles with negative signed area
     Index degenerate = 0;  //!< image triangles with zero area (relative to their edge lengths)
-    double distortion_mean = 0, distortion_p95 = 0, distortion_max = 0;  //!< over non-degenerate faces
+    //! Conformal distortion per face: ratio of the singular values of the affine map from the
+    //! triangle (laid out from its lengths) to its image; 1 = conformal. Over non-degenerate faces.
+    double distortion_mean = 0, distortion_p95 = 0, distortion_max = 0;
     std::vector<double> face_distortion;  //!< #F (infinity on degenerate faces)
 };
-MapQuality map_quality(const MeshView& mesh, const ConformalMap& map);
+MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
+                       const Eigen::VectorXcd& tau);
+
+//! Euclidean length of every edge of a mesh from its positions.
+std::vector<double> edge_lengths(const MeshView& mesh);
 
 //! Closedness of complex forms: max over faces of |sum of the three edge values| divided by the
 //! largest |value| on any edge.

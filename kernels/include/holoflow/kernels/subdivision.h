@@ -15,3 +15,16 @@ namespace holoflow::kernels {
 MeshView subdivide_midpoint(const MeshView& mesh);
 
 }  // namespace holoflow::kernels
+
+namespace holoflow::kernels {
+
+//! \brief Closed 1-forms of `mesh` (#E x k) carried exactly to subdivide_midpoint(mesh): every
+//! input face is integrated to a local potential (0 at its first corner), midpoints get the
+//! mean of their ends, and each new edge the difference. Closed forms stay closed and keep their
+//! periods on every loop of input edges, so both meshes share one cohomology basis.
+//! \throw InvalidInput if `forms` does not have one row per edge of `mesh` or `fine` is not
+//! subdivide_midpoint(mesh).
+Eigen::MatrixXd subdivide_forms_midpoint(const MeshView& mesh, const MeshView& fine,
+                                         const Eigen::MatrixXd& forms);
+
+}  // namespace holoflow::kernels

@@ -1,0 +1,159 @@
+#include "holoflow/engine/conformal_pipeline.h"
+
+#include <cmath>
+#include <complex>
+#include <cstring>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "holoflow/engine/mesh_loader.h"
+#include "holoflow/kernels/shapes.h"
+#include "holoflow/kernels/subdivision.h"
+#include "support/test_support.h"
+
+namespace holoflow::engine {
+namespace {
+
+using Complex = std::complex<double>;
+
+constexpr double kUnimodularTol = 1e-9;    // A is a sum of exact small rationals
+constexpr double kModulusTol = 0.01;       // issue: 1% at a moderate resolution
+
+std::shared_ptr<const MeshView> corpus_mesh(const std::string& name) {
+    return load_mesh(test::corpus(name + ".off")).mesh;
+}
+
+Complex torus_modulus(double R, double r, int nu, int nv) {
+    const MeshView torus = shapes::torus(R, r, nu, nv);
+    const ConformalResult c = compute_conformal(torus);
+    EXPECT_EQ(c.basis.genus, 1);
+    return kernels::reduce_modulus(c.basis.period_matrix(0, 0));
+}
+
+TEST(Conformal, TorusOfRevolutionModulusConverges) {
+    for (const auto& [R, r] : {std::pair{2.0, 1.0}, std::pair{4.0, 1.0}}) {
+        SCOPED_TRACE("R = " + std::to_string(R) + ", r = " + std::to_string(r));
+        // Conformal to a flat torus whose periods have ratio sqrt(R^2 - r^2) / r (or inverse).
+        const Complex expected(0, std::sqrt(R * R - r * r) / r);
+        const double coarse = std::abs(torus_modulus(R, r, 48, 24) - expected) / std::abs(expected);
+        const double fine = std::abs(torus_modulus(R, r, 96, 48) - expected) / std::abs(expected);
+        EXPECT_LT(coarse, kModulusTol);
+        EXPECT_LT(fine, 0.5 * coarse);  // second order: about a quarter
+    }
+}
+
+TEST(Conformal, TorusMapIsFlatParallelogram) {
+    const MeshView torus = shapes::torus(2, 1, 48, 24);
+    const ConformalResult c = compute_conformal(torus);
+    EXPECT_EQ(c.quality.flipped, 0);
+    EXPECT_EQ(c.quality.degenerate, 0);
+    // Smooth torus, 24 vertices around the tube: nearly conformal everywhere.
+    EXPECT_LT(c.quality.distortion_max, 1.2);
+    EXPECT_EQ(c.input_mesh_quality.flipped, 0);
+    EXPECT_LT(c.closedness_max, 1e-12);
+    EXPECT_LT(c.coclosedness_max, 1e-9);
+}
+
+TEST(Conformal, ClosedGenusZeroAndSeveralComponentsAreRefused) {
+    EXPECT_THROW(compute_conformal(shapes::icosphere(2)), InvalidInput);
+    EXPECT_THROW(compute_conformal(*corpus_mesh("bones")), InvalidInput);
+    EXPECT_THROW(compute_conformal(shapes::flat_grid(4, 4)), InvalidInput);  // a disk
+}
+
+class ConformalCorpus : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(ConformalCorpus, CertificatesHold) {
+    const auto mesh = corpus_mesh(GetParam());
+    const ConformalResult c = compute_conformal(*mesh);
+    EXPECT_NEAR(std::abs(c.star.wedge_det), 1.0, kUnimodularTol);
+    EXPECT_LT(c.star.wedge_integrality_error, kUnimodularTol);
+    EXPECT_LT(c.basis.period_symmetry_error, 0.1);  // weak measure; stricter under refinement
+    EXPECT_GT(c.basis.period_im_min_eigenvalue, 0.0);
+    EXPECT_LT(c.closedness_max, 1e-12);
+    EXPECT_LT(c.coclosedness_max, 1e-8);
+    EXPECT_EQ(c.negative_weights, 0);
+}
+
+TEST_P(ConformalCorpus, StarErrorsFallAndPeriodsStayUnderSubdivision) {
+    const auto mesh = corpus_mesh(GetParam());
+    const ConformalResult coarse = compute_conformal(*mesh);
+    const MeshView fine_mesh = kernels::subdivide_midpoint(*mesh);
+    ConformalOptions carried;
+    carried.closed_forms =
+        kernels::subdivide_forms_midpoint(*mesh, fine_mesh, coarse.homology.closed_forms);
+    const ConformalResult fine = compute_conformal(fine_mesh, carried);
+    EXPECT_LT(fine.star.star_square_error, coarse.star.star_square_error);
+    EXPECT_LT(fine.star.star_isometry_error, coarse.star.star_isometry_error);
+    // Same cohomology basis on both meshes, so the same canonical basis and comparable periods.
+    EXPECT_EQ(fine.basis.canonical, coarse.basis.canonical);
+    const double change = (fine.basis.period_matrix - coarse.basis.period_matrix).norm() /
+                          coarse.basis.period_matrix.norm();
+    EXPECT_LT(change, 0.1);
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, ConformalCorpus,
+                         ::testing::Values("eight", "femur", "elephant", "helmet", "anchor",
+                                           "couplingdown", "turbine"));
+
+class IntrinsicVsExtrinsic : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(IntrinsicVsExtrinsic, IntrinsicDelaunayIsBetter) {
+    const auto mesh = corpus_mesh(GetParam());
+    ConformalOptions extrinsic;
+    extrinsic.laplacian = LaplacianKind::Extrinsic;
+    const ConformalResult i = compute_conformal(*mesh);
+    const ConformalResult e = compute_conformal(*mesh, extrinsic);
+    EXPECT_GT(e.negative_weights, 0);
+    EXPECT_EQ(i.negative_weights, 0);
+    EXPECT_LT(i.quality.flipped, e.quality.flipped);
+    EXPECT_LT(i.star.star_square_error, e.star.star_square_error);
+    EXPECT_LT(i.star.star_isometry_error, e.star.star_isometry_error);
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, IntrinsicVsExtrinsic, ::testing::Values("femur", "anchor", "turbine"));
+
+TEST(Conformal, OpenSurfaceBoundaryIsHorizontal) {
+    for (const auto& [name, genus] : {std::pair{"head", 2}, std::pair{"lion", 4}}) {
+        SCOPED_TRACE(name);
+        const auto mesh = corpus_mesh(name);
+        const ConformalResult c = compute_conformal(*mesh);
+        ASSERT_TRUE(c.double_covered);
+        EXPECT_EQ(c.basis.genus, genus);
+        // The chosen form is even under the involution: on the fixed set (the original
+        // boundary) it is real, so boundary loops are horizontal trajectories.
+        double along = 0, across = 0;
+        for (Index h = 0; h < mesh->n_halfedges(); ++h) {
+            if (!mesh->is_boundary_halfedge(h)) continue;
+            const Index a = mesh->tail(h), b = mesh->head(h);
+            const MeshView& s = *c.surface;
+            for (Index g = s.vertex_halfedge[a], first = g;;) {  // the cover edge a -> b
+                if (s.head(g) == b) {
+                    const Complex t = static_cast<double>(s.edge_sign(g)) * c.tau(s.halfedge_edge[g]);
+                    along += std::abs(t.real());
+                    across += std::abs(t.imag());
+                    break;
+                }
+                g = s.rotate(g);
+                if (g == first) break;
+            }
+        }
+        ASSERT_GT(along, 0);
+        EXPECT_LT(across / along, 0.05);
+    }
+}
+
+TEST(Conformal, SameBitsForOneAndTwoThreads) {
+    const auto mesh = corpus_mesh("elephant");
+    auto run = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        return compute_conformal(*mesh);
+    };
+    const ConformalResult one = run(1), two = run(2);
+    ASSERT_EQ(one.tau.size(), two.tau.size());
+    EXPECT_EQ(std::memcmp(one.tau.data(), two.tau.data(), sizeof(Complex) * one.tau.size()), 0);
+    EXPECT_EQ(one.basis.period_matrix, two.basis.period_matrix);
+}
+
+}  // namespace
+}  // namespace holoflow::engine
