@@ -28,8 +28,11 @@ void prepare_output_folder(const std::filesystem::path& folder) {
 }
 
 void write_file_atomic(const std::filesystem::path& path, const std::string& content) {
-    const std::filesystem::path temporary =
-        path.parent_path() / ("." + path.filename().string() + ".tmp" + std::to_string(::getpid()));
+    std::string name = ".";
+    name += path.filename().string();
+    name += ".tmp";
+    name += std::to_string(::getpid());
+    const std::filesystem::path temporary = path.parent_path() / name;
     {
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
         out.write(content.data(), static_cast<std::streamsize>(content.size()));
@@ -70,8 +73,10 @@ std::string format_uv_obj(const MeshView& input, const ConformalResult& result) 
     for (Index f = 0; f < input.n_faces(); ++f) {
         out += 'f';
         for (int k = 0; k < 3; ++k) {
-            out += ' ' + std::to_string(surface.F(f, k) + 1) + '/' +
-                   std::to_string(result.map.corner_wedge[3 * f + k] + 1);
+            out += ' ';
+            out += std::to_string(surface.F(f, k) + 1);
+            out += '/';
+            out += std::to_string(result.map.corner_wedge[3 * f + k] + 1);
         }
         out += '\n';
     }
@@ -88,7 +93,9 @@ std::string format_forms(const ConformalResult& result) {
                       "# one line per edge of the working surface: tail head values...\n";
     out += "genus " + std::to_string(n / 2) + " edges " + std::to_string(surface.n_edges()) + "\n";
     for (Index e = 0; e < surface.n_edges(); ++e) {
-        out += std::to_string(surface.E(e, 0)) + ' ' + std::to_string(surface.E(e, 1));
+        out += std::to_string(surface.E(e, 0));
+        out += ' ';
+        out += std::to_string(surface.E(e, 1));
         for (Eigen::Index i = 0; i < n; ++i) {
             out += ' ';
             append_number(out, result.harmonic(e, i));
