@@ -1,0 +1,46 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::kernels {
+
+//! A triangulation of the input surface by geodesic edges: same vertices and geometry, new
+//! connectivity and edge lengths, with closed 1-forms carried over.
+struct IntrinsicTriangulation {
+    //! Same vertices (V copied for reference only: the geometry is edge_length), flipped
+    //! connectivity built by make_mesh_view(V, F, twin); two edges may join one vertex pair and a
+    //! face may repeat a vertex, which flips can produce.
+    MeshView mesh;
+    std::vector<double> edge_length;  //!< #E of `mesh`
+    //! #E x k: the input forms carried through every flip, measured along E(e,0) -> E(e,1).
+    Eigen::MatrixXd forms;
+    Index flips = 0;
+    bool hit_flip_limit = false;  //!< the flip cap stopped the algorithm before it finished
+    //! Interior edges whose opposite-angle test still fails at the end (final pass): nonzero only
+    //! when hit_flip_limit, or when a flip would have made a numerically degenerate triangle.
+    Index non_delaunay_edges = 0;
+};
+
+struct IntrinsicDelaunayOptions {
+    //! Cap on the number of flips; -1: only a safety bound of 100 #E + 1000 (hitting either sets
+    //! hit_flip_limit).
+    Index max_flips = -1;
+};
+
+//! \brief Flips edges of the intrinsic metric (the input's edge lengths) until every interior
+//! edge is Delaunay: cot a + cot b >= 0 for the angles a, b opposite it, i.e. nonnegative cotan
+//! weights, up to a tolerance of 1e-12 times the cotangent scale (a^2 + b^2 + c^2) / (4 area) of
+//! its two triangles (the rounding error of the test itself). Boundary edges never flip (an
+//! obtuse angle opposite one keeps its negative weight). Closed 1-forms move exactly: flipping
+//! edge ab of triangles abc, bad to edge cd sets eta(c->d) = eta(c->a) + eta(a->d), so
+//! integer-valued forms stay integer and closed. Serial FIFO over the edges in index order;
+//! deterministic.
+//! \pre every face has a positive area; forms has #E rows.  \throw InvalidInput.
+//! \cite bobenko_springborn_2007, fisher_springborn_schroeder_sullivan_2007
+IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::MatrixXd& forms,
+                                          const IntrinsicDelaunayOptions& options = {});
+
+}  // namespace holoflow::kernels
