@@ -32,11 +32,13 @@ class StageClock {
     std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
 
-// eta + d f for vertex functions f (#V x k), along E(e,0) -> E(e,1).
-Eigen::MatrixXd add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f) {
-    Eigen::MatrixXd omega = eta;
-    for (Index e = 0; e < E.rows(); ++e) omega.row(e) += f.row(E(e, 1)) - f.row(E(e, 0));
-    return omega;
+// omega += d f for vertex functions f (#V x k), along E(e,0) -> E(e,1); column by column.
+void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
+    for (Eigen::Index c = 0; c < omega.cols(); ++c) {
+        double* out = omega.col(c).data();
+        const double* fc = f.col(c).data();
+        for (Index e = 0; e < E.rows(); ++e) out[e] += fc[E(e, 1)] - fc[E(e, 0)];
+    }
 }
 
 }  // namespace
@@ -80,7 +82,7 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
     // functions are shared by both, so the harmonic forms come back to the mesh's edges exactly.
     kernels::IntrinsicTriangulation intrinsic;
     const MeshView* laplace_mesh = &surface;
-    const Eigen::MatrixXd* laplace_eta = &eta;
+    const Eigen::MatrixXd* laplace_eta = &eta;  // the closed forms on the Laplacian's mesh
     std::vector<double> weights;
     if (options.laplacian == LaplacianKind::IntrinsicDelaunay) {
         intrinsic = kernels::intrinsic_delaunay(surface, eta);
@@ -114,8 +116,11 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
         -kernels::codifferential(surface.n_vertices(), laplace_mesh->E, weights, *laplace_eta);
     for (Index p : pinned) rhs.row(p).setZero();
     const Eigen::MatrixXd potential = factor->solve(rhs);
-    const Eigen::MatrixXd laplace_omega = add_gradient(laplace_mesh->E, *laplace_eta, potential);
-    r.harmonic = add_gradient(surface.E, eta, potential);
+    r.harmonic = eta;
+    add_gradient(surface.E, potential, r.harmonic);
+    // On the intrinsic triangulation its carried forms become the harmonic ones in place.
+    Eigen::MatrixXd& laplace_omega = laplace_mesh == &surface ? r.harmonic : intrinsic.forms;
+    if (laplace_mesh != &surface) add_gradient(laplace_mesh->E, potential, laplace_omega);
     clock.lap("solves");
     {
         Eigen::MatrixXd residual =
@@ -125,11 +130,10 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
         r.coclosedness_max = scale > 0 ? residual.cwiseAbs().maxCoeff() / scale : 0;
     }
 
-    r.star = kernels::hodge_star(*laplace_mesh, weights, laplace_omega);
+    r.star = kernels::hodge_star(weights, laplace_omega, kernels::wedge_matrix(surface, eta));
     clock.lap("hodge_star");
     r.basis = kernels::holomorphic_basis(r.star);
-    r.holomorphic = kernels::holomorphic_forms(r.harmonic, r.star, r.basis);
-    r.closedness_max = kernels::closedness_error(surface, r.holomorphic);
+    r.closedness_max = kernels::closedness_error(surface, r.harmonic);
     clock.lap("holomorphic_basis");
 
     r.form_coefficients =

@@ -118,8 +118,12 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
             continue;
         }
         if (image_area < 0) ++q.flipped;
-        const Eigen::JacobiSVD<Eigen::Matrix2d> svd(T * S.inverse());
-        const double d = svd.singularValues()(0) / svd.singularValues()(1);
+        // Singular values of the 2x2 Jacobian in closed form: s1^2 + s2^2 = |J|_F^2, s1 s2 = |det J|.
+        const Eigen::Matrix2d J = T * S.inverse();
+        const double frobenius2 = J.squaredNorm(), det = std::abs(J.determinant());
+        const double root = std::sqrt(std::max(0.0, frobenius2 * frobenius2 - 4 * det * det));
+        const double s1 = std::sqrt(0.5 * (frobenius2 + root));
+        const double d = s1 * s1 / det;  // s1 / s2 with s2 = det / s1
         q.face_distortion[f] = d;
         finite.push_back(d);
     }
@@ -135,14 +139,15 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
     return q;
 }
 
-double closedness_error(const MeshView& mesh, const Eigen::MatrixXcd& forms) {
+double closedness_error(const MeshView& mesh, const Eigen::MatrixXd& forms) {
     double worst = 0, scale = 0;
     for (Eigen::Index c = 0; c < forms.cols(); ++c) {
-        const Eigen::VectorXcd col = forms.col(c);
-        scale = std::max(scale, col.cwiseAbs().maxCoeff());
+        const double* value = forms.col(c).data();
+        for (Index e = 0; e < mesh.n_edges(); ++e) scale = std::max(scale, std::abs(value[e]));
         for (Index f = 0; f < mesh.n_faces(); ++f) {
-            Complex sum = 0;
-            for (int k = 0; k < 3; ++k) sum += form_along(mesh, col, 3 * f + k);
+            double sum = 0;
+            for (Index h = 3 * f; h < 3 * f + 3; ++h)
+                sum += mesh.edge_sign(h) * value[mesh.halfedge_edge[h]];
             worst = std::max(worst, std::abs(sum));
         }
     }

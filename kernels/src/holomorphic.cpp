@@ -1,5 +1,6 @@
 #include "holoflow/kernels/holomorphic.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -12,16 +13,26 @@
 
 namespace holoflow::kernels {
 
-HodgeStar hodge_star(const MeshView& mesh, std::span<const double> w, const Eigen::MatrixXd& omega) {
+HodgeStar hodge_star(std::span<const double> w, const Eigen::MatrixXd& omega,
+                     const Eigen::MatrixXd& wedge) {
     const Eigen::Index k = omega.cols();
     HOLOFLOW_REQUIRE(k >= 2 && k % 2 == 0, "need 2g >= 2 harmonic forms");
-    HOLOFLOW_REQUIRE(omega.rows() == mesh.n_edges() && static_cast<Index>(w.size()) == mesh.n_edges(),
+    HOLOFLOW_REQUIRE(static_cast<Eigen::Index>(w.size()) == omega.rows(),
                      "forms and weights must have one row per edge");
+    HOLOFLOW_REQUIRE(wedge.rows() == k && wedge.cols() == k, "wedge matrix must be 2g x 2g");
     HodgeStar h;
-    h.wedge = wedge_matrix(mesh, omega);
-    const Eigen::Map<const Eigen::VectorXd> weight(w.data(), static_cast<Eigen::Index>(w.size()));
-    h.inner = omega.transpose() * weight.asDiagonal() * omega;
-    h.inner = 0.5 * (h.inner + h.inner.transpose()).eval();  // exact symmetry, order-independent
+    h.wedge = wedge;
+    // B = Omega^T W Omega over fixed blocks of edges: small dense products (vectorised), no
+    // #E x 2g temporary, and a summation order that does not depend on threads.
+    constexpr Eigen::Index kBlock = 2048;
+    h.inner = Eigen::MatrixXd::Zero(k, k);
+    const Eigen::Map<const Eigen::VectorXd> weight(w.data(), omega.rows());
+    for (Eigen::Index start = 0; start < omega.rows(); start += kBlock) {
+        const Eigen::Index n = std::min(kBlock, omega.rows() - start);
+        const auto block = omega.middleRows(start, n);
+        h.inner.noalias() += block.transpose() * (weight.segment(start, n).asDiagonal() * block);
+    }
+    h.inner = 0.5 * (h.inner + h.inner.transpose()).eval();  // exactly symmetric
 
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(h.wedge);
     h.wedge_det = lu.determinant();

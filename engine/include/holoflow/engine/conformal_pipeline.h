@@ -39,7 +39,6 @@ struct ConformalResult {
     Eigen::MatrixXd harmonic;                //!< #E x 2g omega_i on `surface`'s edges
     kernels::HodgeStar star;
     kernels::HolomorphicBasis basis;
-    Eigen::MatrixXcd holomorphic;            //!< #E x g normalised phi_k
     Eigen::VectorXd form_coefficients;       //!< the chosen tau = sum_i d_i (omega_i + i *omega_i)
     Eigen::VectorXcd tau;                    //!< #E chosen form
     kernels::ConformalMap map;
@@ -47,7 +46,7 @@ struct ConformalResult {
     //! harmonic: the intrinsic Delaunay one by default) and on the input mesh (uv.obj).
     kernels::MapQuality quality;
     kernels::MapQuality input_mesh_quality;
-    double closedness_max = 0;               //!< of the holomorphic forms, relative
+    double closedness_max = 0;               //!< of the harmonic forms (so of every holomorphic one)
     double coclosedness_max = 0;             //!< of the harmonic forms, relative to the rhs
     Index intrinsic_flips = 0;
     Index negative_weights = 0;              //!< cotan weights < 0 in the Laplacian used

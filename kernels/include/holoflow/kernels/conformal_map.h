@@ -43,8 +43,9 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
 //! Euclidean length of every edge of a mesh from its positions.
 std::vector<double> edge_lengths(const MeshView& mesh);
 
-//! Closedness of complex forms: max over faces of |sum of the three edge values| divided by the
-//! largest |value| on any edge.
-double closedness_error(const MeshView& mesh, const Eigen::MatrixXcd& forms);
+//! Closedness of 1-forms (#E x k): max over faces of |sum of the three edge values| divided by
+//! the largest |value| on any edge. Holomorphic forms built from closed harmonic forms and their
+//! stars (linear combinations) are closed exactly when these are.
+double closedness_error(const MeshView& mesh, const Eigen::MatrixXd& forms);
 
 }  // namespace holoflow::kernels

@@ -22,8 +22,12 @@ struct HodgeStar {
 
 //! \brief Hodge star matrix of harmonic 1-forms `omega` (#E x 2g on `mesh`, weights `w` per
 //! edge): A and B as products over the edges (no (2g)^2 passes over faces), C^T = A^{-1} B.
+//! A depends only on cohomology classes, so the caller passes `wedge` = wedge_matrix of the
+//! closed forms omega is cohomologous to (omega = eta + d f, on any triangulation carrying
+//! them): sparse integer forms make it exact and cheap.
 //! \pre 2g >= 2 columns, sizes match.  \throw InvalidInput; SolverFailure if A is singular.
-HodgeStar hodge_star(const MeshView& mesh, std::span<const double> w, const Eigen::MatrixXd& omega);
+HodgeStar hodge_star(std::span<const double> w, const Eigen::MatrixXd& omega,
+                     const Eigen::MatrixXd& wedge);
 
 //! a-normalised holomorphic basis and period matrix on a canonical homology basis.
 struct HolomorphicBasis {
