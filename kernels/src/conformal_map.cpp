@@ -118,12 +118,12 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
             continue;
         }
         if (image_area < 0) ++q.flipped;
-        // Singular values of the 2x2 Jacobian in closed form: s1^2 + s2^2 = |J|_F^2, s1 s2 = |det J|.
+        // Singular values of the 2x2 Jacobian from its conformal and anti-conformal parts
+        // (|q| +- |p|): exact 1 for a similarity, no cancellation.
         const Eigen::Matrix2d J = T * S.inverse();
-        const double frobenius2 = J.squaredNorm(), det = std::abs(J.determinant());
-        const double root = std::sqrt(std::max(0.0, frobenius2 * frobenius2 - 4 * det * det));
-        const double s1 = std::sqrt(0.5 * (frobenius2 + root));
-        const double d = s1 * s1 / det;  // s1 / s2 with s2 = det / s1
+        const double q = std::hypot(J(0, 0) + J(1, 1), J(1, 0) - J(0, 1));
+        const double p = std::hypot(J(0, 0) - J(1, 1), J(1, 0) + J(0, 1));
+        const double d = (q + p) / std::abs(q - p);
         q.face_distortion[f] = d;
         finite.push_back(d);
     }

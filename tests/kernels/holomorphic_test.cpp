@@ -1,0 +1,96 @@
+#include "holoflow/kernels/holomorphic.h"
+
+#include <cmath>
+#include <complex>
+#include <set>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include "holoflow/engine/conformal_pipeline.h"
+#include "holoflow/kernels/double_cover.h"
+#include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/shapes.h"
+
+namespace holoflow::kernels {
+namespace {
+
+using Complex = std::complex<double>;
+constexpr double kExactTol = 1e-12;   // exact arithmetic up to rounding
+constexpr double kPeriodTol = 1e-9;   // a-normalisation solves a small dense system
+
+bool in_fundamental_domain(Complex t) {
+    return t.imag() > 0 && std::abs(t.real()) <= 0.5 + kExactTol && std::norm(t) >= 1 - kExactTol;
+}
+
+TEST(ReduceModulus, MapsIntoTheFundamentalDomain) {
+    EXPECT_NEAR(std::abs(reduce_modulus({0, 2}) - Complex(0, 2)), 0, kExactTol);
+    EXPECT_NEAR(std::abs(reduce_modulus({0, 0.5}) - Complex(0, 2)), 0, kExactTol);  // -1/tau
+    EXPECT_NEAR(std::abs(reduce_modulus({3, 1}) - Complex(0, 1)), 0, kExactTol);    // tau - 3
+    // (a tau + b) / (c tau + d) of a reduced point comes back to it.
+    const Complex base(0.3, 1.4);
+    const Complex moved = (2.0 * base + 1.0) / (3.0 * base + 2.0);  // det 2*2 - 1*3 = 1
+    EXPECT_NEAR(std::abs(reduce_modulus(moved) - base), 0, 1e-9);
+    for (double x : {-7.3, -0.2, 0.49, 4.1})
+        for (double y : {0.01, 0.3, 1.0, 9.0}) EXPECT_TRUE(in_fundamental_domain(reduce_modulus({x, y})));
+}
+
+TEST(GenericCoefficients, DistinctAndNonzero) {
+    const Eigen::VectorXd d = generic_form_coefficients(30);
+    std::set<double> seen(d.data(), d.data() + d.size());
+    EXPECT_EQ(seen.size(), 30u);
+    EXPECT_GT(d.cwiseAbs().minCoeff(), 0.1);
+}
+
+TEST(HolomorphicBasis, NormalisedOnCanonicalCycles) {
+    const MeshView surface = shapes::genus_surface(2, 4);
+    const engine::ConformalResult c = engine::compute_conformal(surface);
+    const HolomorphicBasis& b = c.basis;
+    ASSERT_EQ(b.genus, 2);
+    // Canonical cycles: intersection matrix standard (checked by the kernel) and unimodular.
+    EXPECT_NEAR(std::abs(b.canonical.cast<double>().determinant()), 1.0, kExactTol);
+
+    const Eigen::MatrixXcd phi = holomorphic_forms(c.harmonic, c.star, b);
+    ASSERT_EQ(phi.cols(), 2);
+    // Periods over the generator loops, then over the canonical cycles.
+    const Eigen::Index n = c.harmonic.cols();
+    Eigen::MatrixXcd loop_periods(2, n);
+    for (Eigen::Index j = 0; j < n; ++j) {
+        const auto& loop = c.homology.loops[static_cast<std::size_t>(j)];
+        const Eigen::VectorXd re = integrate_along(surface, phi.real(), loop);
+        const Eigen::VectorXd im = integrate_along(surface, phi.imag(), loop);
+        for (int k = 0; k < 2; ++k) loop_periods(k, j) = Complex(re(k), im(k));
+    }
+    const Eigen::MatrixXcd cycle_periods = loop_periods * b.canonical.cast<double>().cast<Complex>();
+    const Eigen::MatrixXcd a = cycle_periods.leftCols(2), bp = cycle_periods.rightCols(2);
+    EXPECT_LT((a - Eigen::MatrixXcd::Identity(2, 2)).norm(), kPeriodTol);
+    EXPECT_LT((bp - b.period_matrix).norm(), kPeriodTol * b.period_matrix.norm());
+    EXPECT_GT(b.period_im_min_eigenvalue, 0);
+    EXPECT_LT(b.period_symmetry_error, 0.05);
+}
+
+TEST(HodgeStar, RejectsSingularWedge) {
+    const Eigen::MatrixXd omega = Eigen::MatrixXd::Random(10, 2);
+    const std::vector<double> w(10, 1.0);
+    EXPECT_THROW(hodge_star(w, omega, Eigen::MatrixXd::Zero(2, 2)), SolverFailure);
+    EXPECT_THROW(hodge_star(w, omega, Eigen::MatrixXd::Zero(3, 3)), InvalidInput);
+}
+
+TEST(Involution, EvenFormsOnADoubleCover) {
+    const MeshView sheet = shapes::perforated_sheet(2, 2);  // genus 0, 3 boundary loops
+    const DoubleCover cover = double_cover(sheet);
+    const HomologyBasis h = compute_homology_basis(cover.mesh);
+    ASSERT_EQ(h.genus, 2);
+    const Eigen::MatrixXi S = involution_matrix(cover, h);
+    EXPECT_EQ(S * S, Eigen::MatrixXi::Identity(4, 4));  // s is an involution
+    EXPECT_NE(S, Eigen::MatrixXi::Identity(4, 4));
+    const Eigen::VectorXd d = even_form_coefficients(S);
+    EXPECT_LT((S.transpose().cast<double>() * d - d).norm(), kExactTol);
+    EXPECT_GT(d.norm(), 0.1);
+    // The even subspace has half the dimension: trace(S) = 0 (an orientation-reversing
+    // involution swaps the two halves of H^1 of the double).
+    EXPECT_EQ(S.trace(), 0);
+}
+
+}  // namespace
+}  // namespace holoflow::kernels
