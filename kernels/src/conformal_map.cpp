@@ -121,9 +121,9 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
         // Singular values of the 2x2 Jacobian from its conformal and anti-conformal parts
         // (|q| +- |p|): exact 1 for a similarity, no cancellation.
         const Eigen::Matrix2d J = T * S.inverse();
-        const double q = std::hypot(J(0, 0) + J(1, 1), J(1, 0) - J(0, 1));
-        const double p = std::hypot(J(0, 0) - J(1, 1), J(1, 0) + J(0, 1));
-        const double d = (q + p) / std::abs(q - p);
+        const double conformal = std::hypot(J(0, 0) + J(1, 1), J(1, 0) - J(0, 1));
+        const double anticonformal = std::hypot(J(0, 0) - J(1, 1), J(1, 0) + J(0, 1));
+        const double d = (conformal + anticonformal) / std::abs(conformal - anticonformal);
         q.face_distortion[f] = d;
         finite.push_back(d);
     }
