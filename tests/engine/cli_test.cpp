@@ -1,6 +1,7 @@
 // End-to-end checks of the holoflow executable: output format, error lines and exit statuses.
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -102,6 +103,52 @@ TEST(Cli, MissingFileAndDirectory) {
     std::filesystem::create_directories(dir.path() / "folder.off");
     const auto folder = test::run_cli("info '" + (dir.path() / "folder.off").string() + "'");
     EXPECT_EQ(folder.status, engine::exit_status(MeshErrorKind::Unreadable)) << folder.err;
+}
+
+TEST(Cli, ConformalWritesItsFilesAndJson) {
+    test::TempDir dir;
+    const std::string out = (dir.path() / "eight").string();
+    const auto r = test::run_cli("conformal '" + test::corpus("eight.off") + "' -o '" + out + "' --json");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    for (const char* key :
+         {"genus", "period_matrix", "wedge_det", "star_square_error", "star_isometry_error",
+          "period_symmetry_error", "period_im_min_eigenvalue", "closedness_max", "coclosedness_max",
+          "flipped_uv_triangles", "conformal_distortion", "timings_ms"})
+        EXPECT_TRUE(j.contains(key)) << key;
+    EXPECT_EQ(j["genus"], 2);
+    EXPECT_EQ(j["period_matrix"].size(), 2u);
+    EXPECT_EQ(j["period_matrix"][0][1].size(), 2u);  // [re, im]
+    for (const char* stage : {"cut_graph_and_closed_forms", "intrinsic_delaunay", "laplacian_assembly",
+                              "analyse", "factorise", "solves", "hodge_star", "integration"})
+        EXPECT_TRUE(j["timings_ms"].contains(stage)) << stage;
+    EXPECT_EQ(nlohmann::json::parse(std::ifstream(out + "/conformal.json")), j);
+    std::ifstream uv(out + "/uv.obj");
+    std::string line;
+    std::size_t faces = 0, texcoords = 0;
+    while (std::getline(uv, line)) {
+        faces += line.rfind("f ", 0) == 0;
+        texcoords += line.rfind("vt ", 0) == 0;
+    }
+    EXPECT_EQ(faces, 634u);
+    EXPECT_GT(texcoords, 315u);  // the cut duplicates vertices along the cut graph
+    std::ifstream forms(out + "/forms");
+    ASSERT_TRUE(forms.good());
+    for (const auto& entry : std::filesystem::directory_iterator(out))
+        EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos);  // no leftovers
+}
+
+TEST(Cli, ConformalRefusesSphereAndUnwritableFolder) {
+    test::TempDir dir;
+    const auto sphere = test::run_cli("conformal '" + test::corpus("bull.off") + "' -o '" +
+                                      (dir.path() / "bull").string() + "'");
+    EXPECT_EQ(sphere.status, 3) << sphere.err;
+    EXPECT_EQ(sphere.err.rfind("error: invalid_input: ", 0), 0u) << sphere.err;
+    const std::string blocker = dir.write("file", "x");  // a file where a folder must go
+    const auto unwritable =
+        test::run_cli("conformal '" + test::corpus("eight.off") + "' -o '" + blocker + "/sub'");
+    EXPECT_EQ(unwritable.status, 6) << unwritable.err;
+    EXPECT_EQ(unwritable.err.rfind("error: output_error: ", 0), 0u) << unwritable.err;
 }
 
 }  // namespace
