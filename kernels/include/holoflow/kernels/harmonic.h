@@ -1,0 +1,30 @@
+#pragma once
+
+#include <span>
+
+#include <Eigen/Core>
+
+#include "holoflow/kernels/cholesky.h"
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::kernels {
+
+//! \brief Co-differential (weighted divergence) of 1-forms on edges: d^T W omega, i.e.
+//! (delta omega)_v = sum over edges e at v of +w_e omega_e where v = E(e,1) (head) and -w_e
+//! omega_e where v = E(e,0) (tail). Loops cancel. delta d equals the LaplacianMatrix of w.
+//! omega is #E x k; returns #V x k. Deterministic (fixed edge order per column).
+//! \throw InvalidInput on mismatched sizes or vertex indices out of range.
+Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
+                               const Eigen::MatrixXd& omega);
+
+//! \brief Harmonic part of closed 1-forms (DESIGN 2.3): omega = eta + d f with L f = -delta eta,
+//! the co-closed representative of eta's cohomology class for the weights w (delta omega = 0).
+//! E are the edges (1-forms measured from E(e,0) to E(e,1)), eta is #E x k, `factor` the Cholesky
+//! factor of the LaplacianMatrix of (E, w) with the given pinned vertices (f = 0 there; one per
+//! component of a closed surface). All k right-hand sides go through one solve.
+//! \throw InvalidInput on mismatched sizes; SolverFailure from the solve.
+Eigen::MatrixXd harmonic_projection(const EdgeMatrix& E, std::span<const double> w,
+                                    const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
+                                    std::span<const Index> pinned);
+
+}  // namespace holoflow::kernels

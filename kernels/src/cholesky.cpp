@@ -1,0 +1,242 @@
+#include "holoflow/kernels/cholesky.h"
+
+#include <cmath>
+#include <mutex>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <cholmod.h>
+
+#include "holoflow/kernels/errors.h"
+
+extern "C" void openblas_set_num_threads(int);
+
+namespace holoflow::kernels {
+namespace {
+
+//! One BLAS thread: callers parallelise over meshes and right-hand sides, and a single thread
+//! keeps every BLAS reduction in a fixed order (same bits on any machine load).
+void pin_blas_threads() {
+    static std::once_flag once;
+    std::call_once(once, [] { openblas_set_num_threads(1); });
+}
+
+//! A configured cholmod_common. Not thread-safe, so each call builds its own: start/finish only
+//! set fields and free workspace (well under a microsecond next to any solve).
+class Common {
+  public:
+    Common() {
+        cholmod_start(&c_);  // fails only for a null pointer
+        c_.nmethods = 1;     // AMD only: the default also tries METIS, slower at every size
+        c_.method[0].ordering = CHOLMOD_AMD;
+        c_.postorder = 1;
+        c_.supernodal = CHOLMOD_SUPERNODAL;
+        c_.quick_return_if_not_posdef = 1;
+        c_.print = 0;  // failures become exceptions, never prints
+        c_.error_handler = nullptr;
+        c_.useGPU = 0;
+    }
+    ~Common() { cholmod_finish(&c_); }
+    Common(const Common&) = delete;
+    Common& operator=(const Common&) = delete;
+
+    cholmod_common* get() { return &c_; }
+
+    //! Throws SolverFailure naming the step if CHOLMOD reported an error (status < 0).
+    void check(const char* step, bool result_ok) const {
+        if (c_.status >= 0 && result_ok) return;
+        std::string reason;
+        switch (c_.status) {
+            case CHOLMOD_OUT_OF_MEMORY: reason = "out of memory"; break;
+            case CHOLMOD_TOO_LARGE: reason = "problem too large"; break;
+            case CHOLMOD_INVALID: reason = "invalid input"; break;
+            case CHOLMOD_NOT_INSTALLED: reason = "method not installed"; break;
+            default: reason = "status " + std::to_string(c_.status); break;
+        }
+        throw SolverFailure(std::string(step) + ": CHOLMOD failed (" + reason + ")");
+    }
+
+  private:
+    cholmod_common c_;
+};
+
+//! Owns a cholmod_factor; frees it with a private common (no shared mutable state).
+struct FactorHandle {
+    cholmod_factor* L = nullptr;
+    FactorHandle() = default;
+    explicit FactorHandle(cholmod_factor* f) : L(f) {}
+    FactorHandle(const FactorHandle&) = delete;
+    FactorHandle& operator=(const FactorHandle&) = delete;
+    ~FactorHandle() {
+        if (L == nullptr) return;
+        Common c;
+        cholmod_free_factor(&L, c.get());
+    }
+};
+
+//! Owns a cholmod_dense allocated by the given common.
+struct DenseHandle {
+    cholmod_dense* X = nullptr;
+    cholmod_common* common = nullptr;
+    DenseHandle(cholmod_dense* x, cholmod_common* c) : X(x), common(c) {}
+    DenseHandle(const DenseHandle&) = delete;
+    DenseHandle& operator=(const DenseHandle&) = delete;
+    ~DenseHandle() {
+        if (X != nullptr) cholmod_free_dense(&X, common);
+    }
+};
+
+//! Non-owning CHOLMOD view of the upper triangle stored in A (CHOLMOD reads it only).
+cholmod_sparse sparse_view(const LaplacianMatrix& A, bool with_values) {
+    cholmod_sparse s{};
+    s.nrow = s.ncol = static_cast<std::size_t>(A.n);
+    s.nzmax = A.row.size();
+    s.p = const_cast<Index*>(A.col_start.data());
+    s.i = const_cast<Index*>(A.row.data());
+    s.nz = nullptr;
+    s.x = with_values ? const_cast<double*>(A.value.data()) : nullptr;
+    s.z = nullptr;
+    s.stype = 1;  // symmetric, upper triangle stored
+    s.itype = CHOLMOD_INT;
+    s.xtype = with_values ? CHOLMOD_REAL : CHOLMOD_PATTERN;
+    s.dtype = CHOLMOD_DOUBLE;
+    s.sorted = 1;
+    s.packed = 1;
+    return s;
+}
+
+void require(bool condition, const std::string& message) {
+    if (!condition) throw InvalidInput("analyse: " + message);
+}
+
+void require_valid_pattern(const LaplacianMatrix& A) {
+    require(A.n > 0, "empty matrix");
+    require(A.col_start.size() == static_cast<std::size_t>(A.n) + 1 && A.col_start.front() == 0 &&
+                static_cast<std::size_t>(A.col_start.back()) == A.row.size() &&
+                A.value.size() == A.row.size(),
+            "inconsistent CSC arrays");
+    for (Index j = 0; j < A.n; ++j) {
+        const Index begin = A.col_start[j], end = A.col_start[j + 1];
+        bool ok = begin < end && A.row[end - 1] == j && A.row[begin] >= 0;
+        for (Index s = begin + 1; ok && s < end; ++s) ok = A.row[s - 1] < A.row[s];
+        if (!ok)
+            require(false, "column " + std::to_string(j) +
+                               " is not sorted upper-triangular ending with its diagonal");
+    }
+}
+
+}  // namespace
+
+struct CholeskySymbolic::Impl {
+    Index n = 0;
+    std::vector<Index> col_start, row;  // the analysed pattern, for matches()
+    FactorHandle symbolic;
+};
+
+struct CholeskyFactor::Impl {
+    std::shared_ptr<const CholeskySymbolic> symbolic;
+    FactorHandle numeric;
+};
+
+CholeskySymbolic::CholeskySymbolic(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+CholeskySymbolic::~CholeskySymbolic() = default;
+
+std::shared_ptr<const CholeskySymbolic> CholeskySymbolic::analyse(const LaplacianMatrix& A) {
+    require_valid_pattern(A);
+    pin_blas_threads();
+    auto impl = std::make_unique<Impl>();
+    impl->n = A.n;
+    impl->col_start = A.col_start;
+    impl->row = A.row;
+    Common c;
+    cholmod_sparse view = sparse_view(A, /*with_values=*/false);
+    impl->symbolic.L = cholmod_analyze(&view, c.get());
+    c.check("analyse", impl->symbolic.L != nullptr);
+    if (!impl->symbolic.L->is_super)
+        throw SolverFailure("analyse: CHOLMOD returned a simplicial analysis");
+    return std::shared_ptr<const CholeskySymbolic>(new CholeskySymbolic(std::move(impl)));
+}
+
+std::size_t CholeskySymbolic::factor_nonzeros() const { return impl_->symbolic.L->xsize; }
+
+bool CholeskySymbolic::matches(const LaplacianMatrix& A) const {
+    return A.n == impl_->n && A.col_start == impl_->col_start && A.row == impl_->row;
+}
+
+Index CholeskySymbolic::size() const { return impl_->n; }
+
+CholeskyFactor::CholeskyFactor(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+CholeskyFactor::~CholeskyFactor() = default;
+
+std::shared_ptr<const CholeskyFactor> CholeskyFactor::factorize(
+    std::shared_ptr<const CholeskySymbolic> symbolic, const LaplacianMatrix& A) {
+    HOLOFLOW_REQUIRE(symbolic != nullptr, "no symbolic analysis");
+    HOLOFLOW_REQUIRE(symbolic->matches(A), "matrix pattern differs from the analysed one");
+    HOLOFLOW_REQUIRE(A.value.size() == A.row.size(), "matrix has no values");
+    for (Index j = 0; j < A.n; ++j)
+        for (Index s = A.col_start[j]; s < A.col_start[j + 1]; ++s)
+            if (!std::isfinite(A.value[s]))
+                throw SolverFailure("factorize: matrix entry (" + std::to_string(A.row[s]) +
+                                    ", " + std::to_string(j) + ") is not finite");
+    pin_blas_threads();
+
+    auto impl = std::make_unique<Impl>();
+    Common c;
+    // The analysis stays untouched (shared by concurrent factorizations): work on a copy.
+    impl->numeric.L = cholmod_copy_factor(symbolic->impl_->symbolic.L, c.get());
+    c.check("factorize (copy analysis)", impl->numeric.L != nullptr);
+    cholmod_sparse view = sparse_view(A, /*with_values=*/true);
+    const int ok = cholmod_factorize(&view, impl->numeric.L, c.get());
+    c.check("factorize", ok != 0);
+    const cholmod_factor* L = impl->numeric.L;
+    if (c.get()->status == CHOLMOD_NOT_POSDEF || L->minor < L->n) {
+        const auto* perm = static_cast<const Index*>(L->Perm);
+        const std::size_t k = L->minor < L->n ? L->minor : 0;
+        throw SolverFailure("factorize: matrix is not positive definite (pivot " +
+                            std::to_string(k) + ", row " + std::to_string(perm[k]) + ")");
+    }
+    if (!L->is_super || !L->is_ll || L->xtype != CHOLMOD_REAL)
+        throw SolverFailure("factorize: CHOLMOD returned an unexpected factor type");
+    impl->symbolic = std::move(symbolic);
+    return std::shared_ptr<const CholeskyFactor>(new CholeskyFactor(std::move(impl)));
+}
+
+Eigen::MatrixXd CholeskyFactor::solve(const Eigen::MatrixXd& B) const {
+    const Index n = size();
+    HOLOFLOW_REQUIRE(B.rows() == n, "right-hand side has " + std::to_string(B.rows()) +
+                                        " rows, matrix has " + std::to_string(n));
+    if (B.cols() == 0) return Eigen::MatrixXd(n, 0);
+    pin_blas_threads();
+
+    Common c;  // per call: a cholmod_common is not thread-safe, the factor is only read
+    cholmod_dense b{};
+    b.nrow = static_cast<std::size_t>(n);
+    b.ncol = static_cast<std::size_t>(B.cols());
+    b.nzmax = b.nrow * b.ncol;
+    b.d = b.nrow;
+    b.x = const_cast<double*>(B.data());  // read only by cholmod_solve
+    b.z = nullptr;
+    b.xtype = CHOLMOD_REAL;
+    b.dtype = CHOLMOD_DOUBLE;
+    DenseHandle x(cholmod_solve(CHOLMOD_A, impl_->numeric.L, &b, c.get()), c.get());
+    c.check("solve", x.X != nullptr);
+
+    Eigen::MatrixXd X = Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(x.X->x),
+                                                          n, B.cols());
+    if (!X.allFinite()) {
+        Eigen::Index bad_row = 0, bad_col = 0;
+        (!X.array().isFinite()).maxCoeff(&bad_row, &bad_col);
+        throw SolverFailure("solve: solution entry (" + std::to_string(bad_row) + ", " +
+                            std::to_string(bad_col) + ") is not finite");
+    }
+    return X;
+}
+
+Index CholeskyFactor::size() const { return impl_->symbolic->size(); }
+
+const std::shared_ptr<const CholeskySymbolic>& CholeskyFactor::symbolic() const {
+    return impl_->symbolic;
+}
+
+}  // namespace holoflow::kernels
