@@ -96,8 +96,11 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
     nlohmann::json report = engine::conformal_report(result);
     report["file"] = mesh_args.path;
     report["laplacian"] = laplacian;
-    engine::write_file_atomic(folder / "uv.obj", engine::format_uv_obj(*loaded.mesh, result));
-    engine::write_file_atomic(folder / "forms", engine::format_forms(result));
+    engine::write_file_atomic(folder / "uv.obj", [&](std::ostream& out) {
+        engine::write_uv_obj(out, *loaded.mesh, result);
+    });
+    engine::write_file_atomic(folder / "forms",
+                              [&](std::ostream& out) { engine::write_forms(out, result); });
     engine::write_file_atomic(folder / "conformal.json", report.dump(2) + "\n");
     if (json) std::cout << report.dump(2) << std::endl;
     else

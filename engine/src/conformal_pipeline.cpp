@@ -9,6 +9,7 @@
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/harmonic.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
+#include "holoflow/kernels/parallel.h"
 #include "holoflow/kernels/topology.h"
 
 namespace holoflow::engine {
@@ -34,11 +35,11 @@ class StageClock {
 
 // omega += d f for vertex functions f (#V x k), along E(e,0) -> E(e,1); column by column.
 void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
-    for (Eigen::Index c = 0; c < omega.cols(); ++c) {
-        double* out = omega.col(c).data();
-        const double* fc = f.col(c).data();
+    par::for_each_index(static_cast<std::size_t>(omega.cols()), E.rows() > 20000, [&](std::size_t c) {
+        double* out = omega.col(static_cast<Eigen::Index>(c)).data();
+        const double* fc = f.col(static_cast<Eigen::Index>(c)).data();
         for (Index e = 0; e < E.rows(); ++e) out[e] += fc[E(e, 1)] - fc[E(e, 0)];
-    }
+    });
 }
 
 }  // namespace

@@ -78,15 +78,22 @@ void triangulate(const PolygonSoup& soup, const std::int64_t* corner, std::size_
         }
         return true;
     };
+    // The search for the next ear starts next to the last one clipped, where new ears appear.
+    // A full turn without an ear means the polygon is not simple (self-intersecting, or doubled
+    // back over coincident corners): fan the rest. Clipping such a polygon one corner at a time
+    // cost a failed O(n^2) search per corner, O(n^3) in all: seconds per kilobyte of file.
+    std::size_t start = 0;
     while (ring.size() > 3) {
-        std::size_t ear = 0;
-        while (ear < ring.size() && !is_ear(ear)) ++ear;
-        if (ear == ring.size()) ear = 0;  // no proper ear (self-intersecting input): clip anyway
         const std::size_t m = ring.size();
+        std::size_t tried = 0, ear = start % m;
+        while (tried < m && !is_ear(ear)) ++tried, ear = (ear + 1) % m;
+        if (tried == m) break;
         out.push_back({corner[ring[(ear + m - 1) % m]], corner[ring[ear]], corner[ring[(ear + 1) % m]]});
         ring.erase(ring.begin() + static_cast<std::ptrdiff_t>(ear));
+        start = (ear + m - 2) % (m - 1);  // the clipped corner's predecessor
     }
-    out.push_back({corner[ring[0]], corner[ring[1]], corner[ring[2]]});
+    for (std::size_t i = 1; i + 1 < ring.size(); ++i)
+        out.push_back({corner[ring[0]], corner[ring[i]], corner[ring[i + 1]]});
 }
 
 // For every halfedge, the other halfedge on the same vertex pair (or -1 on the boundary).

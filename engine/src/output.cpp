@@ -6,17 +6,6 @@
 #include <unistd.h>
 
 namespace holoflow::engine {
-namespace {
-
-// Shortest text that reads back to the same double.
-void append_number(std::string& out, double x) {
-    char buffer[32];
-    const auto result = std::to_chars(buffer, buffer + sizeof buffer, x);
-    out.append(buffer, result.ptr);
-}
-
-}  // namespace
-
 void prepare_output_folder(const std::filesystem::path& folder) {
     std::error_code ec;
     std::filesystem::create_directories(folder, ec);
@@ -27,7 +16,8 @@ void prepare_output_folder(const std::filesystem::path& folder) {
         throw OutputError("output folder '" + folder.string() + "' is not writable");
 }
 
-void write_file_atomic(const std::filesystem::path& path, const std::string& content) {
+void write_file_atomic(const std::filesystem::path& path,
+                       const std::function<void(std::ostream&)>& write) {
     std::string name = ".";
     name += path.filename().string();
     name += ".tmp";
@@ -35,9 +25,10 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
     const std::filesystem::path temporary = path.parent_path() / name;
     {
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-        out.write(content.data(), static_cast<std::streamsize>(content.size()));
+        if (out) write(out);
         out.flush();
         if (!out) {
+            out.close();
             std::error_code ignored;
             std::filesystem::remove(temporary, ignored);
             throw OutputError("cannot write '" + path.string() + "' (disk full or not writable)");
@@ -51,62 +42,81 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
     }
 }
 
-std::string format_uv_obj(const MeshView& input, const ConformalResult& result) {
+void write_file_atomic(const std::filesystem::path& path, const std::string& content) {
+    write_file_atomic(path, [&](std::ostream& out) {
+        out.write(content.data(), static_cast<std::streamsize>(content.size()));
+    });
+}
+
+namespace {
+
+// Shortest text that reads back to the same double, or an integer.
+template <class T>
+void put(std::ostream& out, T x) {
+    char buffer[32];
+    const auto result = std::to_chars(buffer, buffer + sizeof buffer, x);
+    out.write(buffer, result.ptr - buffer);
+}
+
+}  // namespace
+
+void write_uv_obj(std::ostream& out, const MeshView& input, const ConformalResult& result) {
     const MeshView& surface = *result.surface;
-    std::string out = "# holoflow uv map of the chosen holomorphic 1-form; vt per wedge\n";
+    out << "# holoflow uv map of the chosen holomorphic 1-form; vt per wedge\n";
     for (Index v = 0; v < input.n_vertices(); ++v) {
-        out += "v";
+        out << 'v';
         for (int k = 0; k < 3; ++k) {
-            out += ' ';
-            append_number(out, input.V(v, k));
+            out << ' ';
+            put(out, input.V(v, k));
         }
-        out += '\n';
+        out << '\n';
     }
     for (const auto& z : result.map.wedge_uv) {
-        out += "vt ";
-        append_number(out, z.real());
-        out += ' ';
-        append_number(out, z.imag());
-        out += '\n';
+        out << "vt ";
+        put(out, z.real());
+        out << ' ';
+        put(out, z.imag());
+        out << '\n';
     }
     // Cover faces f < #F(input) are the input faces with the same vertex numbers.
     for (Index f = 0; f < input.n_faces(); ++f) {
-        out += 'f';
+        out << 'f';
         for (int k = 0; k < 3; ++k) {
-            out += ' ';
-            out += std::to_string(surface.F(f, k) + 1);
-            out += '/';
-            out += std::to_string(result.map.corner_wedge[3 * f + k] + 1);
+            out << ' ';
+            put(out, surface.F(f, k) + 1);
+            out << '/';
+            put(out, result.map.corner_wedge[3 * f + k] + 1);
         }
-        out += '\n';
+        out << '\n';
     }
-    return out;
 }
 
-std::string format_forms(const ConformalResult& result) {
+void write_forms(std::ostream& out, const ConformalResult& result) {
     const MeshView& surface = *result.surface;
     const Eigen::Index n = result.harmonic.cols();
-    const Eigen::MatrixXd conjugate = result.harmonic * result.star.star.transpose();
-    std::string out = "# holoflow forms 1\n"
-                      "# harmonic basis omega_1..omega_2g dual to the generator loops, then their "
-                      "Hodge stars *omega_1..*omega_2g\n"
-                      "# one line per edge of the working surface: tail head values...\n";
-    out += "genus " + std::to_string(n / 2) + " edges " + std::to_string(surface.n_edges()) + "\n";
+    const Eigen::MatrixXd& C = result.star.star;  // *omega_i = sum_j C(i, j) omega_j
+    out << "# holoflow forms 1\n"
+           "# harmonic basis omega_1..omega_2g dual to the generator loops, then their Hodge "
+           "stars *omega_1..*omega_2g\n"
+           "# one line per edge of the working surface: tail head values...\n"
+        << "genus " << n / 2 << " edges " << surface.n_edges() << "\n";
+    Eigen::VectorXd row(n), star(n);
     for (Index e = 0; e < surface.n_edges(); ++e) {
-        out += std::to_string(surface.E(e, 0));
-        out += ' ';
-        out += std::to_string(surface.E(e, 1));
+        row = result.harmonic.row(e).transpose();
+        star.noalias() = C * row;
+        put(out, surface.E(e, 0));
+        out << ' ';
+        put(out, surface.E(e, 1));
         for (Eigen::Index i = 0; i < n; ++i) {
-            out += ' ';
-            append_number(out, result.harmonic(e, i));
+            out << ' ';
+            put(out, row(i));
         }
         for (Eigen::Index i = 0; i < n; ++i) {
-            out += ' ';
-            append_number(out, conjugate(e, i));
+            out << ' ';
+            put(out, star(i));
         }
-        out += '\n';
+        out << '\n';
     }
-    return out;
 }
 
 }  // namespace holoflow::engine

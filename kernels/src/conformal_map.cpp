@@ -7,11 +7,14 @@
 #include <Eigen/Geometry>
 
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/parallel.h"
 
 namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
+
+constexpr Index kParallelFaces = 20000;  // below this, threads cost more than they save
 
 Complex form_along(const MeshView& mesh, const Eigen::VectorXcd& tau, Index h) {
     return static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
@@ -96,9 +99,11 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
                      "lengths and form must have one value per edge");
     MapQuality q;
     q.face_distortion.assign(mesh.n_faces(), std::numeric_limits<double>::infinity());
-    std::vector<double> finite;
-    finite.reserve(mesh.n_faces());
-    for (Index f = 0; f < mesh.n_faces(); ++f) {
+    // Per-face results in parallel (each face writes its own slot), counts gathered after.
+    enum : char { kGood, kFlipped, kDegenerate };
+    std::vector<char> state(mesh.n_faces(), kGood);
+    const auto measure = [&](std::size_t begin, std::size_t end) {
+    for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
         const Index h0 = 3 * f, h1 = 3 * f + 1, h2 = 3 * f + 2;
         // Source triangle laid out from its lengths: corner 0 at 0, corner 1 on the x axis.
         const double a = edge_length[mesh.halfedge_edge[h0]], b = edge_length[mesh.halfedge_edge[h1]],
@@ -114,10 +119,10 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
         const Complex t1 = form_along(mesh, tau, h1);
         const double scale = std::max({std::norm(t0), std::norm(t1), std::norm(t2)});
         if (!(std::abs(image_area) > 1e-14 * scale) || !(y2 > 0)) {
-            ++q.degenerate;
+            state[f] = kDegenerate;
             continue;
         }
-        if (image_area < 0) ++q.flipped;
+        if (image_area < 0) state[f] = kFlipped;
         // Singular values of the 2x2 Jacobian from its conformal and anti-conformal parts
         // (|q| +- |p|): exact 1 for a similarity, no cancellation.
         const Eigen::Matrix2d J = T * S.inverse();
@@ -125,7 +130,15 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
         const double anticonformal = std::hypot(J(0, 0) - J(1, 1), J(1, 0) + J(0, 1));
         const double d = (conformal + anticonformal) / std::abs(conformal - anticonformal);
         q.face_distortion[f] = d;
-        finite.push_back(d);
+    }
+    };
+    par::for_each_range(static_cast<std::size_t>(mesh.n_faces()), kParallelFaces, measure);
+    std::vector<double> finite;
+    finite.reserve(mesh.n_faces());
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        q.flipped += state[f] == kFlipped;
+        q.degenerate += state[f] == kDegenerate;
+        if (state[f] != kDegenerate) finite.push_back(q.face_distortion[f]);
     }
     if (!finite.empty()) {
         double sum = 0;
@@ -140,18 +153,27 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
 }
 
 double closedness_error(const MeshView& mesh, const Eigen::MatrixXd& forms) {
-    double worst = 0, scale = 0;
-    for (Eigen::Index c = 0; c < forms.cols(); ++c) {
-        const double* value = forms.col(c).data();
-        for (Index e = 0; e < mesh.n_edges(); ++e) scale = std::max(scale, std::abs(value[e]));
-        for (Index f = 0; f < mesh.n_faces(); ++f) {
-            double sum = 0;
-            for (Index h = 3 * f; h < 3 * f + 3; ++h)
-                sum += mesh.edge_sign(h) * value[mesh.halfedge_edge[h]];
-            worst = std::max(worst, std::abs(sum));
-        }
+    // Signed edge of every halfedge once, then one flat pass per column (columns in parallel).
+    const Index n_h = mesh.n_halfedges();
+    std::vector<Index> edge(n_h);
+    std::vector<double> sign(n_h);
+    for (Index h = 0; h < n_h; ++h) {
+        edge[h] = mesh.halfedge_edge[h];
+        sign[h] = mesh.edge_sign(h);
     }
-    return scale > 0 ? worst / scale : 0;
+    const auto cols = static_cast<std::size_t>(forms.cols());
+    std::vector<double> worst(cols, 0.0), scale(cols, 0.0);
+    par::for_each_index(cols, mesh.n_faces() > kParallelFaces, [&](std::size_t c) {
+        const double* value = forms.col(static_cast<Eigen::Index>(c)).data();
+        for (Index e = 0; e < mesh.n_edges(); ++e) scale[c] = std::max(scale[c], std::abs(value[e]));
+        for (Index h = 0; h < n_h; h += 3) {
+            const double sum = sign[h] * value[edge[h]] + sign[h + 1] * value[edge[h + 1]] +
+                               sign[h + 2] * value[edge[h + 2]];
+            worst[c] = std::max(worst[c], std::abs(sum));
+        }
+    });
+    const double s = cols ? *std::max_element(scale.begin(), scale.end()) : 0.0;
+    return s > 0 ? *std::max_element(worst.begin(), worst.end()) / s : 0.0;
 }
 
 }  // namespace holoflow::kernels

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
@@ -10,6 +11,7 @@
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/double_cover.h"
 #include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/parallel.h"
 
 namespace holoflow::kernels {
 
@@ -22,16 +24,20 @@ HodgeStar hodge_star(std::span<const double> w, const Eigen::MatrixXd& omega,
     HOLOFLOW_REQUIRE(wedge.rows() == k && wedge.cols() == k, "wedge matrix must be 2g x 2g");
     HodgeStar h;
     h.wedge = wedge;
-    // B = Omega^T W Omega over fixed blocks of edges: small dense products (vectorised), no
-    // #E x 2g temporary, and a summation order that does not depend on threads.
-    constexpr Eigen::Index kBlock = 2048;
-    h.inner = Eigen::MatrixXd::Zero(k, k);
+    // B = Omega^T W Omega over fixed blocks of edges: small dense products (vectorised), blocks
+    // in parallel, partial sums added in block order so the bits do not depend on threads.
+    constexpr Eigen::Index kBlock = 4096;
+    const Eigen::Index n_blocks = (omega.rows() + kBlock - 1) / kBlock;
+    std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(n_blocks));
     const Eigen::Map<const Eigen::VectorXd> weight(w.data(), omega.rows());
-    for (Eigen::Index start = 0; start < omega.rows(); start += kBlock) {
+    par::for_each_index(partial.size(), n_blocks > 4, [&](std::size_t b) {
+        const Eigen::Index start = static_cast<Eigen::Index>(b) * kBlock;
         const Eigen::Index n = std::min(kBlock, omega.rows() - start);
         const auto block = omega.middleRows(start, n);
-        h.inner.noalias() += block.transpose() * (weight.segment(start, n).asDiagonal() * block);
-    }
+        partial[b].noalias() = block.transpose() * (weight.segment(start, n).asDiagonal() * block);
+    });
+    h.inner = Eigen::MatrixXd::Zero(k, k);
+    for (const auto& p : partial) h.inner += p;
     h.inner = 0.5 * (h.inner + h.inner.transpose()).eval();  // exactly symmetric
 
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(h.wedge);

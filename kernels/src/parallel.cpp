@@ -17,3 +17,13 @@ void for_each_range(std::size_t n, std::size_t grain,
 }
 
 }  // namespace holoflow::par
+
+namespace holoflow::par {
+
+void for_each_index(std::size_t n, bool parallel, const std::function<void(std::size_t)>& fn) {
+    for_each_range(n, parallel ? 1 : n + 1, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i) fn(i);
+    });
+}
+
+}  // namespace holoflow::par

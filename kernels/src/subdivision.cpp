@@ -2,20 +2,20 @@
 
 namespace holoflow::kernels {
 
+namespace {
+
+// The 1-to-4 split shared by every subdivision scheme here; only the positions V (#V + #E rows:
+// input vertices, then one per input edge) differ between schemes.
+//
 // Input face f = (c0, c1, c2) with halfedge k running c_k -> c_{k+1} and midpoint m_k on it.
 // Output face 4f + k = (c_k, m_k, m_{k+2}) has halfedges
 //   12f + 3k     : c_k -> m_k        first half of input halfedge k
 //   12f + 3k + 1 : m_k -> m_{k+2}    inner, opposite the middle face
 //   12f + 3k + 2 : m_{k+2} -> c_k    second half of input halfedge k + 2
 // and the middle face 4f + 3 = (m0, m1, m2) has halfedge 12f + 9 + j running m_j -> m_{j+1}.
-MeshView subdivide_midpoint(const MeshView& mesh) {
-    const Index n_v = mesh.n_vertices(), n_e = mesh.n_edges(), n_f = mesh.n_faces();
+MeshView split_faces(const MeshView& mesh, PointMatrix V) {
+    const Index n_v = mesh.n_vertices(), n_f = mesh.n_faces();
     const Index n_h = mesh.n_halfedges();
-
-    PointMatrix V(n_v + n_e, 3);
-    V.topRows(n_v) = mesh.V;
-    for (Index e = 0; e < n_e; ++e)
-        V.row(n_v + e) = 0.5 * (mesh.V.row(mesh.E(e, 0)) + mesh.V.row(mesh.E(e, 1)));
 
     TriangleMatrix F(4 * n_f, 3);
     for (Index f = 0; f < n_f; ++f) {
@@ -49,6 +49,17 @@ MeshView subdivide_midpoint(const MeshView& mesh) {
         }
     }
     return make_mesh_view(std::move(V), std::move(F), std::move(twin));
+}
+
+}  // namespace
+
+MeshView subdivide_midpoint(const MeshView& mesh) {
+    const Index n_v = mesh.n_vertices(), n_e = mesh.n_edges();
+    PointMatrix V(n_v + n_e, 3);
+    V.topRows(n_v) = mesh.V;
+    for (Index e = 0; e < n_e; ++e)
+        V.row(n_v + e) = 0.5 * (mesh.V.row(mesh.E(e, 0)) + mesh.V.row(mesh.E(e, 1)));
+    return split_faces(mesh, std::move(V));
 }
 
 }  // namespace holoflow::kernels
@@ -86,6 +97,54 @@ Eigen::MatrixXd subdivide_forms_midpoint(const MeshView& mesh, const MeshView& f
             }
     }
     return out;
+}
+
+}  // namespace holoflow::kernels
+
+namespace holoflow::kernels {
+
+MeshView subdivide_loop(const MeshView& mesh) {
+    const Index n_v = mesh.n_vertices(), n_e = mesh.n_edges();
+    PointMatrix V(n_v + n_e, 3);
+
+    // Moved input vertices: one-rings walked by halfedge, so an edge repeated on one vertex pair
+    // counts once per edge, as the valence does.
+    for (Index v = 0; v < n_v; ++v) {
+        const Index start = mesh.vertex_halfedge[v];
+        Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+        Index valence = 0, h = start, last = start;
+        do {
+            sum += mesh.V.row(mesh.head(h));
+            ++valence;
+            last = h;
+            h = mesh.rotate(h);
+        } while (h != kNoHalfedge && h != start);
+        if (h == kNoHalfedge) {
+            // The fan starts at the outgoing boundary halfedge (MeshView guarantees it) and ends
+            // at the face whose incoming halfedge is on the boundary: the two boundary neighbours.
+            const Eigen::RowVector3d ends =
+                mesh.V.row(mesh.head(start)) + mesh.V.row(mesh.tail(MeshView::prev(last)));
+            V.row(v) = 0.75 * mesh.V.row(v) + 0.125 * ends;
+        } else {
+            // Warren's weights: Loop's convergence to a C1 limit with plain rational weights.
+            const double beta = valence > 3 ? 3.0 / (8.0 * valence) : 3.0 / 16.0;
+            V.row(v) = (1.0 - valence * beta) * mesh.V.row(v) + beta * sum;
+        }
+    }
+
+    // Edge vertices: the two ends and the two opposite corners, found through the halfedges.
+    for (Index e = 0; e < n_e; ++e) {
+        const Index h = mesh.edge_halfedge[e], t = mesh.twin[h];
+        const Eigen::RowVector3d ends = mesh.V.row(mesh.tail(h)) + mesh.V.row(mesh.head(h));
+        if (t == kNoHalfedge) {
+            V.row(n_v + e) = 0.5 * ends;
+        } else {
+            const Eigen::RowVector3d opposite =
+                mesh.V.row(mesh.tail(MeshView::prev(h))) + mesh.V.row(mesh.tail(MeshView::prev(t)));
+            V.row(n_v + e) = 0.375 * ends + 0.125 * opposite;
+        }
+    }
+    return split_faces(mesh, std::move(V));
 }
 
 }  // namespace holoflow::kernels

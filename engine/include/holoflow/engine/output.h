@@ -1,6 +1,8 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
+#include <ostream>
 #include <stdexcept>
 #include <string>
 
@@ -13,8 +15,10 @@ struct OutputError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-//! Writes `content` to a temporary name in the same folder, then renames it over `path`, so a
-//! reader (or a killed run) never sees a half-written file. \throw OutputError.
+//! Streams `write(out)` into a temporary name in the same folder, then renames it over `path`,
+//! so a reader (or a killed run) never sees a half-written file. \throw OutputError.
+void write_file_atomic(const std::filesystem::path& path,
+                       const std::function<void(std::ostream&)>& write);
 void write_file_atomic(const std::filesystem::path& path, const std::string& content);
 
 //! Creates the folder (and parents) if needed and checks it is writable. \throw OutputError.
@@ -22,9 +26,9 @@ void prepare_output_folder(const std::filesystem::path& folder);
 
 //! `uv.obj`: the input mesh with one texture coordinate per wedge of the chosen form's map
 //! (faces of the first copy for double-covered input).
-std::string format_uv_obj(const MeshView& input, const ConformalResult& result);
+void write_uv_obj(std::ostream& out, const MeshView& input, const ConformalResult& result);
 
 //! `forms`: documented plain text, one line per edge of the working surface.
-std::string format_forms(const ConformalResult& result);
+void write_forms(std::ostream& out, const ConformalResult& result);
 
 }  // namespace holoflow::engine

@@ -11,3 +11,12 @@ void for_each_range(std::size_t n, std::size_t grain,
                     const std::function<void(std::size_t, std::size_t)>& fn);
 
 }  // namespace holoflow::par
+
+namespace holoflow::par {
+
+//! Calls fn(i) for every i in [0, n), one task per index when `parallel` (coarse work items such
+//! as the columns of a #E x 2g matrix), serially otherwise. Each index writes its own output, so
+//! results do not depend on the thread count.
+void for_each_index(std::size_t n, bool parallel, const std::function<void(std::size_t)>& fn);
+
+}  // namespace holoflow::par

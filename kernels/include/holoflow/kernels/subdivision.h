@@ -28,3 +28,17 @@ Eigen::MatrixXd subdivide_forms_midpoint(const MeshView& mesh, const MeshView& f
                                          const Eigen::MatrixXd& forms);
 
 }  // namespace holoflow::kernels
+
+namespace holoflow::kernels {
+
+//! \brief One step of Loop subdivision: the connectivity and layout of subdivide_midpoint (vertex
+//! v < #V is input vertex v moved, #V + e the new vertex of input edge e, faces 4f .. 4f + 3
+//! from face f), with Loop's smoothing rules. Edge vertex: 3/8 (a + b) + 1/8 (c + d) on interior
+//! edges (c, d the opposite corners), the midpoint on boundary edges. Input vertex of valence n:
+//! (1 - n beta) v + beta (sum of neighbours), Warren's beta = 3 / (8n) for n > 3 and 3/16 for
+//! n = 3, inside; 3/4 v + 1/8 (its two boundary neighbours) on the boundary (the boundary curve
+//! is a cubic B-spline). Every rule is an affine combination: affine maps commute with it.
+//! \cite loop_1987 \cite warren_1995
+MeshView subdivide_loop(const MeshView& mesh);
+
+}  // namespace holoflow::kernels

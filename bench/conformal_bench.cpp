@@ -1,0 +1,274 @@
+// The whole conformal stage (compute_conformal) against its sparse-solver core alone, on turbine
+// (genus 11, CAD triangles) at Loop subdivision levels 0, 1, 2 (18k, 74k, 295k faces):
+//   BM_engine_conformal/loop:L     compute_conformal, every stage
+//   BM_kernel_bare_cholmod/loop:L  CholeskySymbolic::analyse + CholeskyFactor::factorize + one
+//                                  solve with the 2g right-hand sides, on the same Laplacian the
+//                                  pipeline factors (intrinsic Delaunay cotan weights, assembled
+//                                  outside the timing loop)
+// The console output ends with the ratio conformal / bare CHOLMOD per level.
+//
+// `conformal_bench --write-loop=PATH,LEVEL` writes turbine after LEVEL Loop steps to PATH (OFF)
+// and exits, for bench/conformal_table.sh; no benchmark runs then.
+#include <benchmark/benchmark.h>
+
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Sparse>
+#include <oneapi/tbb/version.h>
+#include <unistd.h>
+
+#include "holoflow/engine/conformal_pipeline.h"
+#include "holoflow/engine/mesh_loader.h"
+#include "holoflow/kernels/cholesky.h"
+#include "holoflow/kernels/cotan_laplacian.h"
+#include "holoflow/kernels/harmonic.h"
+#include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/intrinsic_delaunay.h"
+#include "holoflow/kernels/subdivision.h"
+#include "holoflow/kernels/topology.h"
+
+namespace {
+
+using holoflow::Index;
+using holoflow::MeshView;
+namespace engine = holoflow::engine;
+namespace kernels = holoflow::kernels;
+
+constexpr double kResidualTol = 1e-8;  // relative; a direct solve reaches ~1e-12 on these meshes
+constexpr int kMaxLevel = 2;
+
+// Turbine after `level` Loop steps, made once per level and shared by both benchmarks.
+std::shared_ptr<const MeshView> turbine_loop(int level) {
+    static std::map<int, std::shared_ptr<const MeshView>> cache;
+    if (auto it = cache.find(level); it != cache.end()) return it->second;
+    const std::string path = std::string(HOLOFLOW_CORPUS_DIR) + "/turbine.off";
+    if (!std::filesystem::exists(path)) throw std::runtime_error("corpus mesh missing: " + path);
+    std::shared_ptr<const MeshView> mesh = engine::load_mesh(path).mesh;
+    for (int l = 0; l < level; ++l)
+        mesh = std::make_shared<const MeshView>(kernels::subdivide_loop(*mesh));
+    return cache.emplace(level, mesh).first->second;
+}
+
+// Shortest decimal that reads back to the same double (std::to_chars).
+void write_off(const MeshView& mesh, const std::string& path) {
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "wb"),
+                                                         &std::fclose);
+    if (!file) throw std::runtime_error("cannot write " + path);
+    std::fprintf(file.get(), "OFF\n%d %d 0\n", mesh.n_vertices(), mesh.n_faces());
+    char line[128];
+    for (Index v = 0; v < mesh.n_vertices(); ++v) {
+        char* end = line;
+        for (int k = 0; k < 3; ++k) {
+            end = std::to_chars(end, line + sizeof line, mesh.V(v, k)).ptr;
+            *end++ = k < 2 ? ' ' : '\n';
+        }
+        std::fwrite(line, 1, static_cast<std::size_t>(end - line), file.get());
+    }
+    for (Index f = 0; f < mesh.n_faces(); ++f)
+        std::fprintf(file.get(), "3 %d %d %d\n", mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2));
+    if (std::ferror(file.get())) throw std::runtime_error("write error on " + path);
+}
+
+void BM_engine_conformal(benchmark::State& state) {
+    std::shared_ptr<const MeshView> mesh;
+    int genus = 0;
+    try {
+        mesh = turbine_loop(static_cast<int>(state.range(0)));
+        genus = kernels::compute_topology(*mesh).genus;
+    } catch (const std::exception& e) {
+        state.SkipWithError(e.what());
+        return;
+    }
+    const engine::ConformalResult check = engine::compute_conformal(*mesh);  // warm-up
+    if (check.basis.genus != genus || !check.tau.allFinite()) {
+        state.SkipWithError("conformal stage lost the genus or produced non-finite values");
+        return;
+    }
+    double solver_ms = 0;  // the pipeline's own analyse + factorise + solves stages
+    for (auto _ : state) {
+        const engine::ConformalResult r = engine::compute_conformal(*mesh);
+        for (const auto& [stage, ms] : r.timings_ms)
+            if (stage == "analyse" || stage == "factorise" || stage == "solves") solver_ms += ms;
+        benchmark::DoNotOptimize(r.tau.data());
+    }
+    state.counters["faces"] = static_cast<double>(mesh->n_faces());
+    state.counters["genus"] = genus;
+    state.counters["solver_stages_ms"] = solver_ms / static_cast<double>(state.iterations());
+    state.SetItemsProcessed(state.iterations() * mesh->n_faces());
+}
+
+// The pipeline's Laplacian and right-hand sides, built outside the timing loop.
+struct SolverInput {
+    kernels::LaplacianMatrix L;
+    Eigen::MatrixXd rhs;
+};
+
+SolverInput pipeline_laplacian(const MeshView& mesh) {
+    const kernels::HomologyBasis homology = kernels::compute_homology_basis(mesh);
+    const kernels::IntrinsicTriangulation intrinsic =
+        kernels::intrinsic_delaunay(mesh, homology.closed_forms);
+    const std::vector<double> w = kernels::cotan_weights_from_lengths(
+        intrinsic.mesh.halfedge_edge, intrinsic.edge_length, intrinsic.mesh.n_edges());
+    SolverInput in;
+    in.L = kernels::assemble_laplacian(mesh.n_vertices(), intrinsic.mesh.E, w, {homology.root});
+    in.rhs = -kernels::codifferential(mesh.n_vertices(), intrinsic.mesh.E, w, intrinsic.forms);
+    in.rhs.row(homology.root).setZero();
+    return in;
+}
+
+// max |L x - b| / max |b| with L expanded from its stored upper triangle.
+double relative_residual(const kernels::LaplacianMatrix& L, const Eigen::MatrixXd& x,
+                         const Eigen::MatrixXd& b) {
+    const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::ColMajor, Index>> upper(
+        L.n, L.n, L.nonzeros(), L.col_start.data(), L.row.data(), L.value.data());
+    const Eigen::MatrixXd r = upper.selfadjointView<Eigen::Upper>() * x - b;
+    return r.cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff();
+}
+
+void BM_kernel_bare_cholmod(benchmark::State& state) {
+    SolverInput in;
+    Index faces = 0;
+    try {
+        const auto mesh = turbine_loop(static_cast<int>(state.range(0)));
+        faces = mesh->n_faces();
+        in = pipeline_laplacian(*mesh);
+    } catch (const std::exception& e) {
+        state.SkipWithError(e.what());
+        return;
+    }
+    {  // warm-up and validation
+        const auto factor =
+            kernels::CholeskyFactor::factorize(kernels::CholeskySymbolic::analyse(in.L), in.L);
+        const double residual = relative_residual(in.L, factor->solve(in.rhs), in.rhs);
+        if (!(residual < kResidualTol)) {
+            state.SkipWithError(("residual " + std::to_string(residual) + " too large").c_str());
+            return;
+        }
+        state.counters["factor_nnz"] = static_cast<double>(factor->symbolic()->factor_nonzeros());
+    }
+    for (auto _ : state) {
+        const auto symbolic = kernels::CholeskySymbolic::analyse(in.L);
+        const auto factor = kernels::CholeskyFactor::factorize(symbolic, in.L);
+        const Eigen::MatrixXd x = factor->solve(in.rhs);
+        benchmark::DoNotOptimize(x.data());
+    }
+    state.counters["faces"] = static_cast<double>(faces);
+    state.counters["rhs"] = static_cast<double>(in.rhs.cols());
+    state.SetItemsProcessed(state.iterations() * faces);
+}
+
+// Level 2 takes seconds per iteration: a few iterations are plenty there.
+BENCHMARK(BM_engine_conformal)
+    ->ArgName("loop")
+    ->DenseRange(0, 1)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_engine_conformal)
+    ->ArgName("loop")
+    ->Arg(2)
+    ->Iterations(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_kernel_bare_cholmod)
+    ->ArgName("loop")
+    ->DenseRange(0, 1)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_kernel_bare_cholmod)
+    ->ArgName("loop")
+    ->Arg(2)
+    ->Iterations(3)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+
+// Console output plus, at the end, whole stage / bare solver per level from this very run, in
+// wall and in main-thread CPU time (the latter is steadier on a shared machine). With
+// --benchmark_repetitions the medians are used.
+class RatioReporter : public benchmark::ConsoleReporter {
+  public:
+    RatioReporter() : ConsoleReporter(::isatty(STDOUT_FILENO) ? OO_ColorTabular : OO_Tabular) {}
+
+    void ReportRuns(const std::vector<Run>& runs) override {
+        for (const Run& run : runs) {
+            const bool median = run.run_type == Run::RT_Aggregate && run.aggregate_name == "median";
+            if (run.error_occurred || !(median || run.run_type == Run::RT_Iteration)) continue;
+            // "BM_x/loop:L/iterations:N/real_time[_median]" -> ("BM_x", L)
+            const std::string name = run.benchmark_name();
+            const std::size_t at = name.find("/loop:");
+            if (at == std::string::npos) continue;
+            const Key key{name.substr(0, at), std::stoi(name.substr(at + 6))};
+            if (median || !from_median_.contains(key))
+                times_[key] = {run.GetAdjustedRealTime(), run.GetAdjustedCPUTime()};
+            if (median) from_median_.insert(key);
+        }
+        ConsoleReporter::ReportRuns(runs);
+    }
+
+    void Finalize() override {
+        ConsoleReporter::Finalize();
+        std::ostream& out = GetOutputStream();
+        for (int level = 0; level <= kMaxLevel; ++level) {
+            const auto whole = times_.find({"BM_engine_conformal", level});
+            const auto bare = times_.find({"BM_kernel_bare_cholmod", level});
+            if (whole == times_.end() || bare == times_.end()) continue;
+            const auto [whole_real, whole_cpu] = whole->second;
+            const auto [bare_real, bare_cpu] = bare->second;
+            out << "ratio conformal / bare CHOLMOD at loop:" << level << ": "
+                << whole_real / bare_real << " wall (" << whole_real << " / " << bare_real
+                << " ms), " << whole_cpu / bare_cpu << " cpu (" << whole_cpu << " / "
+                << bare_cpu << " ms)\n";
+        }
+    }
+
+  private:
+    using Key = std::pair<std::string, int>;
+    std::map<Key, std::pair<double, double>> times_;  // real, cpu
+    std::set<Key> from_median_;
+};
+
+// `--write-loop=PATH,LEVEL`: returns true if the flag was given (and the file written).
+bool write_loop_if_asked(int argc, char** argv) {
+    const std::string flag = "--write-loop=";
+    for (int i = 1; i < argc; ++i) {
+        const std::string arg = argv[i];
+        if (arg.rfind(flag, 0) != 0) continue;
+        const std::string value = arg.substr(flag.size());
+        const std::size_t comma = value.rfind(',');
+        if (comma == std::string::npos)
+            throw std::invalid_argument("expected --write-loop=PATH,LEVEL");
+        const int level = std::stoi(value.substr(comma + 1));
+        if (level < 0 || level > 4) throw std::invalid_argument("LEVEL must lie in [0, 4]");
+        write_off(*turbine_loop(level), value.substr(0, comma));
+        return true;
+    }
+    return false;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        if (write_loop_if_asked(argc, argv)) return 0;
+    } catch (const std::exception& e) {
+        std::cerr << "conformal_bench: " << e.what() << "\n";
+        return 1;
+    }
+    benchmark::Initialize(&argc, argv);
+    if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+    benchmark::AddCustomContext("mesh", "libcgal-demo turbine.off, Loop-subdivided");
+    benchmark::AddCustomContext("tbb", TBB_VERSION_STRING);
+    RatioReporter reporter;
+    benchmark::RunSpecifiedBenchmarks(&reporter);
+    benchmark::Shutdown();
+    return 0;
+}
