@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/parallel.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -218,7 +219,9 @@ HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions
         peel_sign[2 * i + 1] = -mesh.edge_sign(hp) * mesh.edge_sign(hb);
     }
     basis.closed_forms = Eigen::MatrixXd::Zero(n_e, n_gen);
-    for (Index j = 0; j < n_gen; ++j) {
+    // One independent pass per form: columns in parallel, each writing only its own column.
+    par::for_each_index(static_cast<std::size_t>(n_gen), n_e > 20000, [&](std::size_t column) {
+        const auto j = static_cast<Index>(column);
         double* eta = basis.closed_forms.col(j).data();
         eta[basis.generator_edges[j]] = 1.0;
         for (Index i = 0; i < n_peel; ++i)
@@ -228,7 +231,7 @@ HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions
         double root_sum = 0.0;
         for (Index h = 0; h < 3; ++h) root_sum += mesh.edge_sign(h) * eta[mesh.halfedge_edge[h]];
         if (root_sum != 0.0) throw SolverFailure("compute_homology_basis: root face not closed");
-    }
+    });
 
     basis.loops.reserve(n_gen);
     for (const Index e : basis.generator_edges)
