@@ -48,11 +48,21 @@ class Common {
         if (c_.status >= 0 && result_ok) return;
         std::string reason;
         switch (c_.status) {
-            case CHOLMOD_OUT_OF_MEMORY: reason = "out of memory"; break;
-            case CHOLMOD_TOO_LARGE: reason = "problem too large"; break;
-            case CHOLMOD_INVALID: reason = "invalid input"; break;
-            case CHOLMOD_NOT_INSTALLED: reason = "method not installed"; break;
-            default: reason = "status " + std::to_string(c_.status); break;
+            case CHOLMOD_OUT_OF_MEMORY:
+                reason = "out of memory";
+                break;
+            case CHOLMOD_TOO_LARGE:
+                reason = "problem too large";
+                break;
+            case CHOLMOD_INVALID:
+                reason = "invalid input";
+                break;
+            case CHOLMOD_NOT_INSTALLED:
+                reason = "method not installed";
+                break;
+            default:
+                reason = "status " + std::to_string(c_.status);
+                break;
         }
         throw SolverFailure(std::string(step) + ": CHOLMOD failed (" + reason + ")");
     }
@@ -177,8 +187,8 @@ std::shared_ptr<const CholeskyFactor> CholeskyFactor::factorize(
     for (Index j = 0; j < A.n; ++j)
         for (Index s = A.col_start[j]; s < A.col_start[j + 1]; ++s)
             if (!std::isfinite(A.value[s]))
-                throw SolverFailure("factorize: matrix entry (" + std::to_string(A.row[s]) +
-                                    ", " + std::to_string(j) + ") is not finite");
+                throw SolverFailure("factorize: matrix entry (" + std::to_string(A.row[s]) + ", " +
+                                    std::to_string(j) + ") is not finite");
     pin_blas_threads();
 
     auto impl = std::make_unique<Impl>();
@@ -222,8 +232,8 @@ Eigen::MatrixXd CholeskyFactor::solve(const Eigen::MatrixXd& B) const {
     DenseHandle x(cholmod_solve(CHOLMOD_A, impl_->numeric.L, &b, c.get()), c.get());
     c.check("solve", x.X != nullptr);
 
-    Eigen::MatrixXd X = Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(x.X->x),
-                                                          n, B.cols());
+    Eigen::MatrixXd X =
+        Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(x.X->x), n, B.cols());
     if (!X.allFinite()) {
         Eigen::Index bad_row = 0, bad_col = 0;
         (!X.array().isFinite()).maxCoeff(&bad_row, &bad_col);

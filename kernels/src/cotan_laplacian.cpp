@@ -74,8 +74,7 @@ std::vector<double> cotan_weights(const MeshView& mesh) {
 }
 
 std::vector<double> cotan_weights_from_lengths(std::span<const Index> halfedge_edge,
-                                               std::span<const double> edge_length,
-                                               Index n_edges) {
+                                               std::span<const double> edge_length, Index n_edges) {
     HOLOFLOW_REQUIRE(n_edges >= 0 && edge_length.size() == static_cast<std::size_t>(n_edges),
                      "need one length per edge");
     HOLOFLOW_REQUIRE(halfedge_edge.size() % 3 == 0, "need 3 halfedges per face");
@@ -108,14 +107,15 @@ std::vector<double> cotan_weights_from_lengths(std::span<const Index> halfedge_e
     return w;
 }
 
-LaplacianMatrix laplacian_pattern(Index n_vertices, const EdgeMatrix& E, std::vector<Index> pinned) {
+LaplacianMatrix laplacian_pattern(Index n_vertices, const EdgeMatrix& E,
+                                  std::vector<Index> pinned) {
     HOLOFLOW_REQUIRE(n_vertices >= 0, "negative vertex count");
     const Index n_edges = static_cast<Index>(E.rows());
     HOLOFLOW_REQUIRE(E.size() == 0 || (E.minCoeff() >= 0 && E.maxCoeff() < n_vertices),
                      "edge vertex index out of range");
     for (Index p : pinned)
-        HOLOFLOW_REQUIRE(p >= 0 && p < n_vertices, "pinned vertex " + std::to_string(p) +
-                                                       " out of range");
+        HOLOFLOW_REQUIRE(p >= 0 && p < n_vertices,
+                         "pinned vertex " + std::to_string(p) + " out of range");
     const auto n = static_cast<std::size_t>(n_vertices);
 
     // Two counting sorts (by row, then stably by column) leave every column's rows sorted in
@@ -175,9 +175,9 @@ LaplacianMatrix laplacian_pattern(Index n_vertices, const EdgeMatrix& E, std::ve
 
 void fill_laplacian(LaplacianMatrix& L, std::span<const double> edge_weight) {
     HOLOFLOW_REQUIRE(edge_weight.size() == L.edge_slot.size(), "need one weight per edge");
-    HOLOFLOW_REQUIRE(L.diagonal_slot.size() == static_cast<std::size_t>(L.n) &&
-                         L.value.size() == L.row.size(),
-                     "matrix has no pattern");
+    HOLOFLOW_REQUIRE(
+        L.diagonal_slot.size() == static_cast<std::size_t>(L.n) && L.value.size() == L.row.size(),
+        "matrix has no pattern");
     std::fill(L.value.begin(), L.value.end(), 0.0);
     const std::size_t n_edges = edge_weight.size();
     // An edge adds -w to its slot and +w to the diagonal of its smaller vertex (the slot's row);

@@ -7,9 +7,9 @@
 #include <thread>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
-#include <gtest/gtest.h>
 
 #include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/errors.h"
@@ -60,8 +60,8 @@ MeshView jittered(MeshView mesh, std::uint64_t seed, double amount) {
 
 TEST(Cholesky, SolveMatchesSimplicialLDLT) {
     SCOPED_TRACE(kSeed);
-    for (const MeshView& mesh : {shapes::icosphere(4), shapes::torus(2.0, 0.5, 60, 30),
-                                 shapes::genus_surface(2, 4)}) {
+    for (const MeshView& mesh :
+         {shapes::icosphere(4), shapes::torus(2.0, 0.5, 60, 30), shapes::genus_surface(2, 4)}) {
         const LaplacianMatrix L = pinned_laplacian(mesh);
         const auto symbolic = CholeskySymbolic::analyse(L);
         EXPECT_TRUE(symbolic->matches(L));
@@ -78,8 +78,7 @@ TEST(Cholesky, SolveMatchesSimplicialLDLT) {
         ASSERT_EQ(ldlt.info(), Eigen::Success);
         const Eigen::MatrixXd ref = ldlt.solve(B);
         EXPECT_LT(relative_error(X, ref), kSolveTol);
-        const Eigen::MatrixXd residual =
-            upper_matrix(L).selfadjointView<Eigen::Upper>() * X - B;
+        const Eigen::MatrixXd residual = upper_matrix(L).selfadjointView<Eigen::Upper>() * X - B;
         EXPECT_LT(residual.norm() / B.norm(), kSolveTol);
 
         for (Eigen::Index c = 0; c < B.cols(); ++c) {
@@ -200,7 +199,8 @@ TEST(Cholesky, ConcurrentFactorizationsShareOneAnalysis) {
     std::vector<Eigen::MatrixXd> X(kThreads);
     std::vector<std::thread> threads;
     for (int t = 0; t < kThreads; ++t)
-        threads.emplace_back([&, t] { X[t] = CholeskyFactor::factorize(symbolic, L[t])->solve(B); });
+        threads.emplace_back(
+            [&, t] { X[t] = CholeskyFactor::factorize(symbolic, L[t])->solve(B); });
     for (std::thread& t : threads) t.join();
     for (int t = 0; t < kThreads; ++t)
         EXPECT_EQ(X[t], CholeskyFactor::factorize(symbolic, L[t])->solve(B)) << "thread " << t;

@@ -5,8 +5,9 @@
 #include <random>
 #include <vector>
 
-#include <Eigen/Sparse>
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <Eigen/Sparse>
 
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/mesh_view.h"
@@ -103,6 +104,24 @@ TEST(CotanWeights, IntrinsicEqualsExtrinsic) {
         ASSERT_EQ(w.size(), wl.size());
         for (std::size_t e = 0; e < w.size(); ++e) EXPECT_NEAR(wl[e], w[e], 1e-12) << e;
     }
+}
+
+TEST(CotanWeights, SameBitsOnOneOrTwoThreads) {
+    const MeshView mesh = shapes::torus(2.0, 0.7, 100, 60);  // 18000 edges: parallel loops
+    const std::vector<double> lengths = side_lengths(mesh);
+    std::vector<double> serial, parallel, serial_l, parallel_l;
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        serial = cotan_weights(mesh);
+        serial_l = cotan_weights_from_lengths(mesh.halfedge_edge, lengths, mesh.n_edges());
+    }
+    {
+        tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+        parallel = cotan_weights(mesh);
+        parallel_l = cotan_weights_from_lengths(mesh.halfedge_edge, lengths, mesh.n_edges());
+    }
+    EXPECT_EQ(serial, parallel);
+    EXPECT_EQ(serial_l, parallel_l);
 }
 
 TEST(CotanWeights, ObtuseTriangleGivesNegativeWeight) {

@@ -150,8 +150,8 @@ TEST(Codifferential, OfGradientIsLaplacian) {
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
     Eigen::MatrixXd g(t.mesh.n_vertices(), 2);
     for (Eigen::Index k = 0; k < g.size(); ++k) g.data()[k] = uniform(rng);
-    const Eigen::MatrixXd delta = codifferential(t.mesh.n_vertices(), t.mesh.E, w,
-                                                 gradient(t.mesh.E, g));
+    const Eigen::MatrixXd delta =
+        codifferential(t.mesh.n_vertices(), t.mesh.E, w, gradient(t.mesh.E, g));
     Eigen::MatrixXd Lg = Eigen::MatrixXd::Zero(g.rows(), g.cols());  // symmetric CSC product
     for (Index j = 0; j < L.n; ++j) {
         for (Index s = L.col_start[j]; s < L.col_start[j + 1]; ++s) {
@@ -173,8 +173,7 @@ TEST(HarmonicProjection, TorusFormsBecomeCoclosedInTheirClass) {
     ASSERT_EQ(omega.rows(), eta.rows());
     ASSERT_EQ(omega.cols(), 2);
     const Eigen::MatrixXd delta_eta = codifferential(t.mesh.n_vertices(), t.mesh.E, s.w, eta);
-    const Eigen::MatrixXd delta_omega =
-        codifferential(t.mesh.n_vertices(), t.mesh.E, s.w, omega);
+    const Eigen::MatrixXd delta_omega = codifferential(t.mesh.n_vertices(), t.mesh.E, s.w, omega);
     for (int c = 0; c < 2; ++c) {
         SCOPED_TRACE(c);
         const double rhs = delta_eta.col(c).cwiseAbs().maxCoeff();
@@ -243,8 +242,7 @@ TEST(HarmonicProjection, ExactFormsVanishOnGenusTwo) {
     const Eigen::MatrixXd omega = harmonic_projection(mesh.E, s.w, *s.factor, eta, pinned);
     // The class of an exact form is 0, whose harmonic representative is 0.
     EXPECT_LT(omega.cwiseAbs().maxCoeff(), kSolveTol * eta.cwiseAbs().maxCoeff() * 100);
-    EXPECT_THROW(harmonic_projection(mesh.E, s.w, *s.factor, eta.topRows(3), pinned),
-                 InvalidInput);
+    EXPECT_THROW(harmonic_projection(mesh.E, s.w, *s.factor, eta.topRows(3), pinned), InvalidInput);
 }
 
 TEST(HarmonicProjection, SameBitsOnOneOrTwoThreads) {

@@ -18,8 +18,7 @@ std::vector<double> cotan_weights(const MeshView& mesh);
 //! \throw InvalidInput on out-of-range edges, non-positive lengths or a violated triangle
 //! inequality (degenerate faces included).
 std::vector<double> cotan_weights_from_lengths(std::span<const Index> halfedge_edge,
-                                               std::span<const double> edge_length,
-                                               Index n_edges);
+                                               std::span<const double> edge_length, Index n_edges);
 
 //! Symmetric matrix of the quadratic form sum_e w_e (x_i - x_j)^2, stored as CSC upper triangle
 //! (diagonal included, rows sorted within each column, each column ending with its diagonal).
@@ -27,10 +26,10 @@ std::vector<double> cotan_weights_from_lengths(std::span<const Index> halfedge_e
 //! refill `value` in O(E) without touching the pattern (same symbolic factorization).
 struct LaplacianMatrix {
     Index n = 0;
-    std::vector<Index> col_start;      //!< n + 1 column starts
-    std::vector<Index> row;            //!< row index of every stored entry
-    std::vector<double> value;         //!< value of every stored entry
-    std::vector<Index> edge_slot;      //!< #E: slot of the off-diagonal entry of edge e, -1 for loops
+    std::vector<Index> col_start;  //!< n + 1 column starts
+    std::vector<Index> row;        //!< row index of every stored entry
+    std::vector<double> value;     //!< value of every stored entry
+    std::vector<Index> edge_slot;  //!< #E: slot of the off-diagonal entry of edge e, -1 for loops
     std::vector<Index> diagonal_slot;  //!< #V: slot of the diagonal entry of every vertex
     //! Vertices whose row and column are replaced by the identity (one per component makes the
     //! Laplacian of a closed surface positive definite; the solution there is 0).
