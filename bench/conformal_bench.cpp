@@ -29,6 +29,7 @@
 
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/engine/mesh_loader.h"
+#include "holoflow/engine/output.h"
 #include "holoflow/kernels/cholesky.h"
 #include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/harmonic.h"
@@ -59,24 +60,8 @@ std::shared_ptr<const MeshView> turbine_loop(int level) {
     return cache.emplace(level, mesh).first->second;
 }
 
-// Shortest decimal that reads back to the same double (std::to_chars).
 void write_off(const MeshView& mesh, const std::string& path) {
-    std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "wb"),
-                                                         &std::fclose);
-    if (!file) throw std::runtime_error("cannot write " + path);
-    std::fprintf(file.get(), "OFF\n%d %d 0\n", mesh.n_vertices(), mesh.n_faces());
-    char line[128];
-    for (Index v = 0; v < mesh.n_vertices(); ++v) {
-        char* end = line;
-        for (int k = 0; k < 3; ++k) {
-            end = std::to_chars(end, line + sizeof line, mesh.V(v, k)).ptr;
-            *end++ = k < 2 ? ' ' : '\n';
-        }
-        std::fwrite(line, 1, static_cast<std::size_t>(end - line), file.get());
-    }
-    for (Index f = 0; f < mesh.n_faces(); ++f)
-        std::fprintf(file.get(), "3 %d %d %d\n", mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2));
-    if (std::ferror(file.get())) throw std::runtime_error("write error on " + path);
+    engine::write_file_atomic(path, [&](std::ostream& out) { engine::write_off(out, mesh); });
 }
 
 void BM_engine_conformal(benchmark::State& state) {

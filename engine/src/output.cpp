@@ -60,6 +60,24 @@ void put(std::ostream& out, T x) {
 
 }  // namespace
 
+void write_off(std::ostream& out, const MeshView& mesh) {
+    out << "OFF\n" << mesh.n_vertices() << ' ' << mesh.n_faces() << " 0\n";
+    for (Index v = 0; v < mesh.n_vertices(); ++v) {
+        for (int k = 0; k < 3; ++k) {
+            put(out, mesh.V(v, k));
+            out << (k < 2 ? ' ' : '\n');
+        }
+    }
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        out << '3';
+        for (int k = 0; k < 3; ++k) {
+            out << ' ';
+            put(out, mesh.F(f, k));
+        }
+        out << '\n';
+    }
+}
+
 void write_uv_obj(std::ostream& out, const MeshView& input, const ConformalResult& result) {
     const MeshView& surface = *result.surface;
     out << "# holoflow uv map of the chosen holomorphic 1-form; vt per wedge\n";

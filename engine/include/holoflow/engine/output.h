@@ -24,6 +24,9 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
 //! Creates the folder (and parents) if needed and checks it is writable. \throw OutputError.
 void prepare_output_folder(const std::filesystem::path& folder);
 
+//! A mesh as OFF, coordinates as the shortest decimals that read back to the same doubles.
+void write_off(std::ostream& out, const MeshView& mesh);
+
 //! `uv.obj`: the input mesh with one texture coordinate per wedge of the chosen form's map
 //! (faces of the first copy for double-covered input).
 void write_uv_obj(std::ostream& out, const MeshView& input, const ConformalResult& result);
