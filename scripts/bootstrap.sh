@@ -53,7 +53,19 @@ case "${1:-}" in
     configure_and_build
     # The corpus tests need the libcgal-demo meshes unpacked by the configure step.
     test -f "$build/data/meshes/eight.off" || { echo "bootstrap: libcgal-demo meshes missing" >&2; exit 1; }
-    ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 1200
+    status=0
+    ctest --test-dir "$build" --output-on-failure -j "$jobs" --timeout 1200 || status=1
+    # The same suite again under AddressSanitizer and UBSan (leaks on, any UB fatal): hostile
+    # inputs must fail cleanly, not by luck of the memory layout. Both runs must pass.
+    asan="$build-asan"
+    cmake -S "$here" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHOLOFLOW_BUILD_TESTS=ON \
+      -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined" \
+      -DHOLOFLOW_BUILD_BENCH=OFF
+    cmake --build "$asan" -j "$jobs"
+    ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+      ctest --test-dir "$asan" --output-on-failure -j "$jobs" --timeout 1200 || status=1
+    [ "$status" -eq 0 ] || echo "bootstrap: the test suite failed (plain or sanitizer build)" >&2
+    exit "$status"
     ;;
   *)
     echo "usage: bash scripts/bootstrap.sh demo [MESH] | test" >&2
