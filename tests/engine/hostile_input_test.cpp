@@ -2,8 +2,8 @@
 // header counts, enormous lines, huge indices, lying binary lists, non-finite and collinear
 // coordinates, and the legal but awkward cases (single triangle, thousands of components,
 // 1e-6 degree needles and caps, coincident and intersecting geometry). Each gives a clean
-// MeshError of the documented kind or a correct result. Inputs the fuzzers (tests/fuzz) found
-// are kept at the end as regressions.
+// MeshError of the documented kind or a correct result. Inputs found while hardening (by the
+// fuzzers in tests/fuzz or by review) are kept at the end as regressions.
 
 #include <algorithm>
 #include <array>
@@ -139,7 +139,7 @@ TEST(HostileInput, HeaderCountsBeyondFileSizeAreRefusedAtOnce) {
                            MeshErrorKind::HeaderMismatch));
     EXPECT_TRUE(refused_as(run("OFF\n99999999999999999999 1 0\n", MeshFormat::Off),
                            MeshErrorKind::HeaderMismatch));
-    // Claims just too large for the bytes that follow (4 vertices need at least 24 bytes).
+    // Claims just too large: 5 vertices and 4 faces need at least 62 bytes, 32 follow.
     EXPECT_TRUE(refused_as(run("OFF\n5 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n",
                                MeshFormat::Off),
                            MeshErrorKind::HeaderMismatch));
