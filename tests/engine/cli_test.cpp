@@ -89,8 +89,8 @@ const BadFile kBadFiles[] = {
 };
 
 INSTANTIATE_TEST_SUITE_P(Files, CliBadInput, ::testing::ValuesIn(kBadFiles),
-                         [](const auto& info) {
-                             std::string n = info.param.name;
+                         [](const auto& param_info) {
+                             std::string n = param_info.param.name;
                              std::replace(n.begin(), n.end(), '.', '_');
                              return n;
                          });
