@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "holoflow/engine/mesh_loader.h"
+#include "support/generated_files.h"
 #include "holoflow/engine/output.h"
 #include "holoflow/engine/mesh_reader.h"
 #include "holoflow/kernels/subdivision.h"
@@ -130,7 +131,34 @@ void BM_kernel_topology(benchmark::State& state, const std::string& mesh) {
     });
 }
 
+// Ear clipping of 256-gons, convex (earless:0) or walking one circle twice (earless:1, no ear):
+// both must cost about the same (the earless case was O(n^3) per polygon before it fell back to
+// a fan). Both files are refused after triangulation, which is part of the timed work.
+void BM_engine_load_polygons(benchmark::State& state) {
+    constexpr int kCorners = 256, kPolygons = 50;
+    const std::string off = holoflow::test::polygon_stack_off(kCorners, kPolygons, state.range(0) == 1);
+    auto load = [&] {
+        try {
+            engine::mesh_from_soup(engine::parse_polygon_soup(off.data(), off.size(),
+                                                              engine::MeshFormat::Off));
+        } catch (const engine::MeshError&) {
+            return true;
+        }
+        return false;
+    };
+    if (!load()) {
+        state.SkipWithError("the stacked polygons should be refused (duplicate or zero area)");
+        return;
+    }
+    for (auto _ : state) benchmark::DoNotOptimize(load());
+    state.SetItemsProcessed(state.iterations() * kPolygons);
+}
+
 void register_all() {
+    benchmark::RegisterBenchmark("BM_engine_load_polygons", BM_engine_load_polygons)
+        ->ArgName("earless")
+        ->DenseRange(0, 1)
+        ->Unit(benchmark::kMillisecond);
     using Fn = void (*)(benchmark::State&, const std::string&);
     const std::pair<const char*, Fn> kinds[] = {{"BM_engine_read_off", &BM_engine_read_off},
                                                 {"BM_engine_load", &BM_engine_load},

@@ -9,7 +9,6 @@
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/harmonic.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
-#include "holoflow/kernels/parallel.h"
 #include "holoflow/kernels/topology.h"
 
 namespace holoflow::engine {
@@ -32,15 +31,6 @@ class StageClock {
     StageTimes& times_;
     std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
-
-// omega += d f for vertex functions f (#V x k), along E(e,0) -> E(e,1); column by column.
-void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
-    par::for_each_index(static_cast<std::size_t>(omega.cols()), E.rows() > 20000, [&](std::size_t c) {
-        double* out = omega.col(static_cast<Eigen::Index>(c)).data();
-        const double* fc = f.col(static_cast<Eigen::Index>(c)).data();
-        for (Index e = 0; e < E.rows(); ++e) out[e] += fc[E(e, 1)] - fc[E(e, 0)];
-    });
-}
 
 }  // namespace
 
@@ -112,22 +102,23 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
     const auto factor = kernels::CholeskyFactor::factorize(symbolic, L);
     clock.lap("factorise");
 
-    // All 2g right-hand sides in one solve: L f = -delta(eta).
-    Eigen::MatrixXd rhs =
-        -kernels::codifferential(surface.n_vertices(), laplace_mesh->E, weights, *laplace_eta);
-    for (Index p : pinned) rhs.row(p).setZero();
-    const Eigen::MatrixXd potential = factor->solve(rhs);
+    // One solve for all 2g right-hand sides; the potential corrects the forms on both
+    // triangulations (it lives on the shared vertices).
+    const Eigen::MatrixXd potential =
+        kernels::harmonic_potential(laplace_mesh->E, weights, *factor, *laplace_eta, pinned);
     r.harmonic = eta;
-    add_gradient(surface.E, potential, r.harmonic);
+    kernels::add_gradient(surface.E, potential, r.harmonic);
     // On the intrinsic triangulation its carried forms become the harmonic ones in place.
     Eigen::MatrixXd& laplace_omega = laplace_mesh == &surface ? r.harmonic : intrinsic.forms;
-    if (laplace_mesh != &surface) add_gradient(laplace_mesh->E, potential, laplace_omega);
+    if (laplace_mesh != &surface) kernels::add_gradient(laplace_mesh->E, potential, laplace_omega);
     clock.lap("solves");
     {
+        // Divergence left at the vertices, relative to the largest flux w_e omega_e it sums.
         Eigen::MatrixXd residual =
             kernels::codifferential(surface.n_vertices(), laplace_mesh->E, weights, laplace_omega);
         for (Index p : pinned) residual.row(p).setZero();  // the pinned row carries the balance
-        const double scale = rhs.cwiseAbs().maxCoeff();
+        const Eigen::Map<const Eigen::VectorXd> w(weights.data(), laplace_omega.rows());
+        const double scale = (laplace_omega.array().colwise() * w.array()).abs().maxCoeff();
         r.coclosedness_max = scale > 0 ? residual.cwiseAbs().maxCoeff() / scale : 0;
     }
 
@@ -141,16 +132,21 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
         r.double_covered
             ? kernels::even_form_coefficients(kernels::involution_matrix(*r.cover, r.homology))
             : kernels::generic_form_coefficients(r.harmonic.cols());
+    // tau = sum_i d_i (omega_i + i *omega_i) with *omega_i = sum_j C(i, j) omega_j.
     const Eigen::VectorXd conjugate = r.star.star.transpose() * r.form_coefficients;
-    r.tau = (r.harmonic * r.form_coefficients).cast<Complex>() +
-            Complex(0, 1) * (r.harmonic * conjugate).cast<Complex>();
+    const auto chosen_form = [&](const Eigen::MatrixXd& omega) -> Eigen::VectorXcd {
+        return (omega * r.form_coefficients).cast<Complex>() +
+               Complex(0, 1) * (omega * conjugate).cast<Complex>();
+    };
+    r.tau = chosen_form(r.harmonic);
     r.map = kernels::integrate_form(surface, r.homology, r.tau);
-    const Eigen::VectorXcd laplace_tau = (laplace_omega * r.form_coefficients).cast<Complex>() +
-                                         Complex(0, 1) * (laplace_omega * conjugate).cast<Complex>();
-    r.quality = kernels::map_quality(
-        *laplace_mesh,
-        laplace_mesh == &surface ? kernels::edge_lengths(surface) : intrinsic.edge_length, laplace_tau);
     r.input_mesh_quality = kernels::map_quality(surface, kernels::edge_lengths(surface), r.tau);
+    if (laplace_mesh == &surface) {
+        r.quality = r.input_mesh_quality;
+    } else {
+        r.quality =
+            kernels::map_quality(*laplace_mesh, intrinsic.edge_length, chosen_form(laplace_omega));
+    }
     clock.lap("integration");
 
     if (!r.harmonic.allFinite() || !r.tau.allFinite())

@@ -276,29 +276,47 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
     triangles = {};
     report.unreferenced_vertices = compact_vertices(V, F);
 
-    const Orientation o = orient(F, pair_edges(F, static_cast<Index>(V.rows())));
+    const std::vector<Index> mate = pair_edges(F, static_cast<Index>(V.rows()));
+    const Orientation o = orient(F, mate);
     report.reoriented_faces = o.flipped;
     report.components = static_cast<std::size_t>(o.n_components);
-    for (Index f = 0; f < F.rows(); ++f)
-        if (o.flip[f]) std::swap(F(f, 1), F(f, 2));
 
+    // Faces kept (all, or the largest component) and their new numbers.
+    Index keep_component = -1;
     if (options.components == ComponentPolicy::Largest && o.n_components > 1) {
         std::vector<std::size_t> size(o.n_components, 0);
         for (Index c : o.component) ++size[c];
-        const Index largest =
-            static_cast<Index>(std::max_element(size.begin(), size.end()) - size.begin());
-        TriangleMatrix kept(static_cast<Eigen::Index>(size[largest]), 3);
-        Index next = 0;
-        for (Index f = 0; f < F.rows(); ++f)
-            if (o.component[f] == largest) kept.row(next++) = F.row(f);
+        keep_component = static_cast<Index>(std::max_element(size.begin(), size.end()) - size.begin());
         report.dropped_components = static_cast<std::size_t>(o.n_components) - 1;
-        report.dropped_faces = static_cast<std::size_t>(F.rows()) - size[largest];
-        F = std::move(kept);
-        compact_vertices(V, F);
+        report.dropped_faces = static_cast<std::size_t>(F.rows()) - size[keep_component];
     }
+    std::vector<Index> new_face(F.rows(), -1);
+    Index n_kept = 0;
+    for (Index f = 0; f < F.rows(); ++f)
+        if (keep_component < 0 || o.component[f] == keep_component) new_face[f] = n_kept++;
+
+    // The pairing found above becomes the MeshView's twins directly (no second grouping):
+    // flipping a face swaps its corners 1 and 2, which maps its halfedge k to 2 - k.
+    TriangleMatrix oriented(n_kept, 3);
+    for (Index f = 0; f < F.rows(); ++f) {
+        if (new_face[f] < 0) continue;
+        oriented.row(new_face[f]) = F.row(f);
+        if (o.flip[f]) std::swap(oriented(new_face[f], 1), oriented(new_face[f], 2));
+    }
+    const auto renumber = [&](Index h) {
+        const Index f = h / 3, k = h % 3;
+        return 3 * new_face[f] + (o.flip[f] ? 2 - k : k);
+    };
+    std::vector<Index> twin(3 * static_cast<std::size_t>(n_kept), kNoHalfedge);
+    for (Index h = 0; h < 3 * static_cast<Index>(F.rows()); ++h)
+        if (new_face[h / 3] >= 0 && mate[h] >= 0) twin[renumber(h)] = renumber(mate[h]);
+    F = std::move(oriented);
+    if (keep_component >= 0) compact_vertices(V, F);
 
     try {
-        return {std::make_shared<const MeshView>(make_mesh_view(std::move(V), std::move(F))), report};
+        return {std::make_shared<const MeshView>(
+                    make_mesh_view(std::move(V), std::move(F), std::move(twin))),
+                report};
     } catch (const ConnectivityError& e) {
         // Edges and winding were checked above; only vertex fans remain to go wrong here.
         const MeshErrorKind kind = e.kind == ConnectivityError::Kind::NonManifoldVertex

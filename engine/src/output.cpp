@@ -103,7 +103,7 @@ void write_uv_obj(std::ostream& out, const MeshView& input, const ConformalResul
             out << ' ';
             put(out, surface.F(f, k) + 1);
             out << '/';
-            put(out, result.map.corner_wedge[3 * f + k] + 1);
+            put(out, result.homology.corner_wedge[3 * f + k] + 1);
         }
         out << '\n';
     }

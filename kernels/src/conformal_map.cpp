@@ -28,7 +28,7 @@ ConformalMap integrate_form(const MeshView& mesh, const HomologyBasis& homology,
     HOLOFLOW_REQUIRE(static_cast<Index>(homology.corner_wedge.size()) == mesh.n_halfedges(),
                      "homology basis belongs to another mesh");
     ConformalMap map;
-    map.corner_wedge = homology.corner_wedge;
+    const std::vector<Index>& corner_wedge = homology.corner_wedge;
     map.wedge_uv.assign(homology.n_wedges, Complex(std::numeric_limits<double>::quiet_NaN(), 0));
     std::vector<char> placed(homology.n_wedges, 0);
     std::vector<char> visited(mesh.n_faces(), 0);
@@ -38,7 +38,7 @@ ConformalMap integrate_form(const MeshView& mesh, const HomologyBasis& homology,
     // one already placed corner and the edge values (closedness makes the order irrelevant).
     for (Index seed = 0; seed < mesh.n_faces(); ++seed) {
         if (visited[seed]) continue;
-        const Index w0 = map.corner_wedge[3 * seed];
+        const Index w0 = corner_wedge[3 * seed];
         if (!placed[w0]) {
             map.wedge_uv[w0] = 0;
             placed[w0] = 1;
@@ -49,12 +49,12 @@ ConformalMap integrate_form(const MeshView& mesh, const HomologyBasis& homology,
             const Index f = queue[q];
             Index known = -1;
             for (int k = 0; k < 3 && known < 0; ++k)
-                if (placed[map.corner_wedge[3 * f + k]]) known = 3 * f + k;
+                if (placed[corner_wedge[3 * f + k]]) known = 3 * f + k;
             for (int step = 0; step < 2; ++step) {
                 const Index next = MeshView::next(known);
-                const Index w = map.corner_wedge[next];
+                const Index w = corner_wedge[next];
                 if (!placed[w]) {
-                    map.wedge_uv[w] = map.wedge_uv[map.corner_wedge[known]] + form_along(mesh, tau, known);
+                    map.wedge_uv[w] = map.wedge_uv[corner_wedge[known]] + form_along(mesh, tau, known);
                     placed[w] = 1;
                 }
                 known = next;

@@ -10,15 +10,11 @@ namespace {
 
 constexpr Eigen::Index kParallelEdges = 16384;  // smaller forms: one task beats the TBB split
 
-//! Runs fn(c) for every column c; columns in parallel on large meshes. Each column is written
-//! by one task in a fixed order, so the result does not depend on the thread count.
+//! Runs fn(c) for every column c; columns in parallel on large meshes, each written by one task.
 template <class Fn>
 void for_each_column(Eigen::Index n_edges, Eigen::Index n_cols, const Fn& fn) {
-    const auto cols = static_cast<std::size_t>(n_cols);
-    const std::size_t grain = n_edges >= kParallelEdges ? 1 : cols + 1;
-    par::for_each_range(cols, grain, [&](std::size_t begin, std::size_t end) {
-        for (std::size_t c = begin; c < end; ++c) fn(static_cast<Eigen::Index>(c));
-    });
+    par::for_each_index(static_cast<std::size_t>(n_cols), n_edges >= kParallelEdges,
+                        [&](std::size_t c) { fn(static_cast<Eigen::Index>(c)); });
 }
 
 }  // namespace
@@ -42,9 +38,9 @@ Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<
     return delta;
 }
 
-Eigen::MatrixXd harmonic_projection(const EdgeMatrix& E, std::span<const double> w,
-                                    const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
-                                    std::span<const Index> pinned) {
+Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> w,
+                                   const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
+                                   std::span<const Index> pinned) {
     const Index n = factor.size();
     HOLOFLOW_REQUIRE(eta.rows() == E.rows(), "need one form value per edge");
     for (Index p : pinned)
@@ -52,13 +48,25 @@ Eigen::MatrixXd harmonic_projection(const EdgeMatrix& E, std::span<const double>
     // delta(eta + d f) = delta eta + L f = 0; pinned rows are identity rows with f = 0.
     Eigen::MatrixXd rhs = -codifferential(n, E, w, eta);
     for (Index p : pinned) rhs.row(p).setZero();
-    const Eigen::MatrixXd f = factor.solve(rhs);
-    Eigen::MatrixXd omega = eta;
+    return factor.solve(rhs);
+}
+
+void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
+    HOLOFLOW_REQUIRE(omega.rows() == E.rows() && f.cols() == omega.cols(),
+                     "need one form value per edge and one potential per form");
+    HOLOFLOW_REQUIRE(E.size() == 0 || E.maxCoeff() < f.rows(), "edge vertex index out of range");
     for_each_column(E.rows(), omega.cols(), [&](Eigen::Index c) {
         double* out = omega.col(c).data();
         const double* fc = f.col(c).data();
         for (Eigen::Index e = 0; e < E.rows(); ++e) out[e] += fc[E(e, 1)] - fc[E(e, 0)];
     });
+}
+
+Eigen::MatrixXd harmonic_projection(const EdgeMatrix& E, std::span<const double> w,
+                                    const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
+                                    std::span<const Index> pinned) {
+    Eigen::MatrixXd omega = eta;
+    add_gradient(E, harmonic_potential(E, w, factor, eta, pinned), omega);
     return omega;
 }
 

@@ -20,9 +20,6 @@ using Complex = std::complex<double>;
 constexpr double kUnimodularTol = 1e-9;    // A is a sum of exact small rationals
 constexpr double kModulusTol = 0.01;       // issue: 1% at a moderate resolution
 
-std::shared_ptr<const MeshView> corpus_mesh(const std::string& name) {
-    return load_mesh(test::corpus(name + ".off")).mesh;
-}
 
 Complex torus_modulus(double R, double r, int nu, int nv) {
     const MeshView torus = shapes::torus(R, r, nu, nv);
@@ -57,14 +54,14 @@ TEST(Conformal, TorusMapIsFlatParallelogram) {
 
 TEST(Conformal, ClosedGenusZeroAndSeveralComponentsAreRefused) {
     EXPECT_THROW(compute_conformal(shapes::icosphere(2)), InvalidInput);
-    EXPECT_THROW(compute_conformal(*corpus_mesh("bones")), InvalidInput);
+    EXPECT_THROW(compute_conformal(*test::corpus_mesh("bones")), InvalidInput);
     EXPECT_THROW(compute_conformal(shapes::flat_grid(4, 4)), InvalidInput);  // a disk
 }
 
 class ConformalCorpus : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(ConformalCorpus, CertificatesHold) {
-    const auto mesh = corpus_mesh(GetParam());
+    const auto mesh = test::corpus_mesh(GetParam());
     const ConformalResult c = compute_conformal(*mesh);
     EXPECT_NEAR(std::abs(c.star.wedge_det), 1.0, kUnimodularTol);
     EXPECT_LT(c.star.wedge_integrality_error, kUnimodularTol);
@@ -76,7 +73,7 @@ TEST_P(ConformalCorpus, CertificatesHold) {
 }
 
 TEST_P(ConformalCorpus, StarErrorsFallAndPeriodsStayUnderSubdivision) {
-    const auto mesh = corpus_mesh(GetParam());
+    const auto mesh = test::corpus_mesh(GetParam());
     const ConformalResult coarse = compute_conformal(*mesh);
     const MeshView fine_mesh = kernels::subdivide_midpoint(*mesh);
     ConformalOptions carried;
@@ -99,7 +96,7 @@ INSTANTIATE_TEST_SUITE_P(Corpus, ConformalCorpus,
 class IntrinsicVsExtrinsic : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(IntrinsicVsExtrinsic, IntrinsicDelaunayIsBetter) {
-    const auto mesh = corpus_mesh(GetParam());
+    const auto mesh = test::corpus_mesh(GetParam());
     ConformalOptions extrinsic;
     extrinsic.laplacian = LaplacianKind::Extrinsic;
     const ConformalResult i = compute_conformal(*mesh);
@@ -116,7 +113,7 @@ INSTANTIATE_TEST_SUITE_P(Corpus, IntrinsicVsExtrinsic, ::testing::Values("femur"
 TEST(Conformal, OpenSurfaceBoundaryIsHorizontal) {
     for (const auto& [name, genus] : {std::pair{"head", 2}, std::pair{"lion", 4}}) {
         SCOPED_TRACE(name);
-        const auto mesh = corpus_mesh(name);
+        const auto mesh = test::corpus_mesh(name);
         const ConformalResult c = compute_conformal(*mesh);
         ASSERT_TRUE(c.double_covered);
         EXPECT_EQ(c.basis.genus, genus);
@@ -144,7 +141,7 @@ TEST(Conformal, OpenSurfaceBoundaryIsHorizontal) {
 }
 
 TEST(Conformal, SameBitsForOneAndTwoThreads) {
-    const auto mesh = corpus_mesh("elephant");
+    const auto mesh = test::corpus_mesh("elephant");
     auto run = [&](int threads) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
         return compute_conformal(*mesh);

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -27,6 +26,7 @@
 #include "holoflow/engine/mesh_reader.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/topology.h"
+#include "support/generated_files.h"
 #include "support/test_support.h"
 
 namespace holoflow::engine {
@@ -35,7 +35,6 @@ namespace {
 // 50 MB: far beyond any real line, small enough for a test (the readers scan it once).
 constexpr std::size_t kEnormous = 50u << 20;
 // Refusing a lying header must not depend on the claimed size: well under a second.
-constexpr double kQuickRefusalSeconds = 1.0;
 // Angles of 1e-6 degrees from double positions: rounding is ~1e-16 relative and the first-order
 // formula for the apex angle errs by ~t^2 relative (t ~ 1e-8), so 1e-12 degrees is loose.
 constexpr double kAngleTol = 1e-12;
@@ -73,10 +72,6 @@ Outcome run(const std::string& bytes, MeshFormat format, const LoadOptions& opti
                << "refused as " << to_string(o.kind) << " (" << o.detail << "), expected "
                << to_string(kind);
     return ::testing::AssertionSuccess();
-}
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 template <class T>
@@ -132,7 +127,6 @@ double min_angle_degrees(const MeshView& m) {
 // Header counts far beyond the file size: refused before allocating, whatever the claim.
 
 TEST(HostileInput, HeaderCountsBeyondFileSizeAreRefusedAtOnce) {
-    const auto start = std::chrono::steady_clock::now();
     EXPECT_TRUE(refused_as(run("OFF\n4000000000 8000000000 0\n0 0 0\n", MeshFormat::Off),
                            MeshErrorKind::HeaderMismatch));
     EXPECT_TRUE(refused_as(run("OFF\n9223372036854775807 9223372036854775807 0\n", MeshFormat::Off),
@@ -160,7 +154,6 @@ TEST(HostileInput, HeaderCountsBeyondFileSizeAreRefusedAtOnce) {
     // Binary STL claiming 2^32 - 1 triangles in a 134-byte file.
     std::string stl = binary_stl({{0, 0, 0, 1, 0, 0, 0, 1, 0}}, 0xffffffffu);
     EXPECT_TRUE(refused_as(run(stl, MeshFormat::Stl), MeshErrorKind::Truncated));
-    EXPECT_LT(seconds_since(start), kQuickRefusalSeconds);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -318,9 +311,7 @@ TEST(HostileInput, BinaryPlyWithWrongListLengths) {
     std::string huge = ply_binary_header(4, 1, "uint") + tetra_vertices_binary();
     put(huge, std::uint32_t{0xffffffffu});
     for (std::int32_t i : {0, 1, 2}) put(huge, i);
-    const auto start = std::chrono::steady_clock::now();
     EXPECT_TRUE(refused_as(run(huge, MeshFormat::Ply), MeshErrorKind::Truncated));
-    EXPECT_LT(seconds_since(start), kQuickRefusalSeconds);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -532,40 +523,15 @@ TEST(HostileInput, IntersectingSeparateMeshesAreFine) {
 
 // Polygons that double back over coincident corners have no ear: ear clipping used to clip
 // "anyway" one corner at a time, a failed O(n^2) search per corner, O(n^3) per polygon (3 s for
-// 200 such 256-gons in a Release build, minutes per megabyte). Now the rest is fanned at once,
-// so such a polygon costs no more than a convex one (O(n^2)); measured relative to convex
-// polygons of the same size so that the check holds in sanitizer builds and on a loaded machine.
-TEST(HostileInput, PolygonsWithoutEarsCostNoMoreThanConvexOnes) {
-    constexpr int kCorners = 256;  // the largest polygon the loader ear-clips
-    constexpr int kPolygons = 50;
-    // Before the fix the doubled polygons cost ~85 times the convex ones, now about as much.
-    constexpr double kMaxRatio = 4;
-    constexpr double kSlackSeconds = 0.05;  // timer and parsing noise on tiny durations
-    auto file = [](bool doubled) {
-        const int points = doubled ? kCorners / 2 : kCorners;
-        std::string off = "OFF\n" + std::to_string(kCorners) + " " + std::to_string(kPolygons) +
-                          " 0\n";
-        char line[96];
-        for (int i = 0; i < kCorners; ++i) {  // doubled: the same circle twice, distinct indices
-            const double a = 2 * std::numbers::pi * (i % points) / points;
-            std::snprintf(line, sizeof line, "%.17g %.17g 0\n", std::cos(a), std::sin(a));
-            off += line;
-        }
-        std::string polygon = std::to_string(kCorners);
-        for (int i = 0; i < kCorners; ++i) polygon += " " + std::to_string(i);
-        for (int p = 0; p < kPolygons; ++p) off += polygon + "\n";
-        return off;
-    };
-    auto timed = [](const std::string& off, MeshErrorKind expected) {
-        const auto start = std::chrono::steady_clock::now();
-        EXPECT_TRUE(refused_as(run(off, MeshFormat::Off), expected));
-        return seconds_since(start);
-    };
+// 200 such 256-gons in a Release build). Now the rest is fanned at once; the cost comparison
+// with convex polygons is BM_engine_load_polygons in bench/mesh_io_bench.cpp. Here: the outcome.
+TEST(HostileInput, PolygonsWithoutEarsAreTriangulatedAndRefusedCleanly) {
     // Both are refused after triangulation: the convex copies as duplicates, and the fan over
     // the doubled circle meets a corner's twin (a zero-area triangle).
-    const double convex = timed(file(false), MeshErrorKind::DuplicateFace);
-    const double doubled = timed(file(true), MeshErrorKind::ZeroAreaFace);
-    EXPECT_LT(doubled, kMaxRatio * convex + kSlackSeconds) << "convex " << convex << " s";
+    EXPECT_TRUE(refused_as(run(test::polygon_stack_off(256, 50, false), MeshFormat::Off),
+                           MeshErrorKind::DuplicateFace));
+    EXPECT_TRUE(refused_as(run(test::polygon_stack_off(256, 50, true), MeshFormat::Off),
+                           MeshErrorKind::ZeroAreaFace));
 }
 
 }  // namespace

@@ -62,14 +62,14 @@ TEST(IntegrateForm, CornersDifferByTheFormAndCutsByPeriods) {
         for (int k = 0; k < 3; ++k) {
             const Index a = 3 * f + k, b = MeshView::next(a);
             const Complex along = static_cast<double>(torus.edge_sign(a)) * tau(torus.halfedge_edge[a]);
-            EXPECT_NEAR(std::abs(map.corner_uv(b) - map.corner_uv(a) - along), 0, kExactTol);
+            EXPECT_NEAR(std::abs(map.corner_uv(basis, b) - map.corner_uv(basis, a) - along), 0, kExactTol);
         }
     // Across an edge the two sides agree unless it is cut; then they differ by a period, an
     // integer combination of the periods 1 and i of this form.
     Index cut_sides = 0;
     for (Index h = 0; h < torus.n_halfedges(); ++h) {
         const Index t = torus.twin[h];  // tail(h) == head(t)
-        const Complex jump = map.corner_uv(h) - map.corner_uv(MeshView::next(t));
+        const Complex jump = map.corner_uv(basis, h) - map.corner_uv(basis, MeshView::next(t));
         if (!basis.cut_edge[torus.halfedge_edge[h]]) {
             EXPECT_NEAR(std::abs(jump), 0, kExactTol);
             continue;

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <numbers>
 #include <string>
@@ -19,6 +18,7 @@
 #include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/subdivision.h"
+#include "support/test_support.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -343,20 +343,11 @@ TEST(IntrinsicDelaunay, RejectsBadInput) {
 
 // ---- Real CAD meshes with thousands of obtuse triangles (libcgal-demo corpus). ----
 
-std::shared_ptr<const MeshView> load_corpus(const std::string& name) {
-    const std::string path = std::string(HOLOFLOW_CORPUS_DIR) + "/" + name + ".off";
-    if (!std::filesystem::exists(path)) {
-        ADD_FAILURE() << "corpus mesh missing: " << path;
-        return nullptr;
-    }
-    return engine::load_mesh(path).mesh;
-}
 
 class CorpusIntrinsicDelaunay : public testing::TestWithParam<const char*> {};
 
 TEST_P(CorpusIntrinsicDelaunay, RemovesNegativeWeightsAndCarriesFormsExactly) {
-    const auto mesh_ptr = load_corpus(GetParam());
-    ASSERT_NE(mesh_ptr, nullptr);
+    const auto mesh_ptr = test::corpus_mesh(GetParam());
     const MeshView& mesh = *mesh_ptr;
     const std::vector<double> w_before = cotan_weights(mesh);
     const auto negative_before =
@@ -409,8 +400,7 @@ INSTANTIATE_TEST_SUITE_P(Libcgal, CorpusIntrinsicDelaunay,
 // Midpoint subdivision keeps every triangle's shape, so the obtuse configurations survive at
 // four times the size; the result must still be Delaunay with the forms carried exactly.
 TEST(IntrinsicDelaunay, SubdividedTurbineStaysExact) {
-    const auto mesh_ptr = load_corpus("turbine");
-    ASSERT_NE(mesh_ptr, nullptr);
+    const auto mesh_ptr = test::corpus_mesh("turbine");
     const MeshView fine = subdivide_midpoint(*mesh_ptr);
     const IntrinsicTriangulation r = intrinsic_delaunay(fine, exact_form(fine));
     EXPECT_GT(r.flips, 0);

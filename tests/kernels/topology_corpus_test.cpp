@@ -2,25 +2,18 @@
 // corpus is part of the build, so a missing file is a failure, not a skip.
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <string>
+#include <utility>
 
 #include "holoflow/engine/mesh_loader.h"
 #include "holoflow/kernels/double_cover.h"
 #include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/topology.h"
+#include "support/test_support.h"
 
 namespace holoflow::kernels {
 namespace {
 
-std::shared_ptr<const MeshView> load_corpus(const std::string& name) {
-    const std::string path = std::string(HOLOFLOW_CORPUS_DIR) + "/" + name + ".off";
-    if (!std::filesystem::exists(path)) {
-        ADD_FAILURE() << "corpus mesh missing: " << path;
-        return nullptr;
-    }
-    return engine::load_mesh(path).mesh;
-}
 
 struct Expected {
     const char* name;
@@ -35,8 +28,7 @@ class CorpusTopology : public testing::TestWithParam<Expected> {};
 
 TEST_P(CorpusTopology, MatchesKnownValues) {
     const Expected& expected = GetParam();
-    const auto mesh = load_corpus(expected.name);
-    ASSERT_NE(mesh, nullptr);
+    const auto mesh = test::corpus_mesh(expected.name);
     const Topology t = compute_topology(*mesh);
     EXPECT_EQ(t.genus, expected.genus);
     EXPECT_EQ(t.boundary_loops, expected.boundary_loops);
@@ -64,29 +56,20 @@ INSTANTIATE_TEST_SUITE_P(
         return name;
     });
 
-TEST(CorpusTopology, DoubleCoverOfHeadHasGenusTwo) {
-    const auto head = load_corpus("head");
-    ASSERT_NE(head, nullptr);
-    const DoubleCover dc = double_cover(*head);
-    EXPECT_TRUE(dc.mesh.is_closed());
-    const Topology t = compute_topology(dc.mesh);
-    EXPECT_EQ(t.components, 1);
-    EXPECT_EQ(t.genus, 2 * 0 + 3 - 1);
-}
-
-TEST(CorpusTopology, DoubleCoverOfLionHasGenusFour) {
-    const auto lion = load_corpus("lion");
-    ASSERT_NE(lion, nullptr);
-    const DoubleCover dc = double_cover(*lion);
-    EXPECT_TRUE(dc.mesh.is_closed());
-    const Topology t = compute_topology(dc.mesh);
-    EXPECT_EQ(t.components, 1);
-    EXPECT_EQ(t.genus, 2 * 0 + 5 - 1);
+TEST(CorpusTopology, DoubleCoversOfHeadAndLion) {
+    // head: genus 0, 3 boundary loops; lion: genus 0, 5. The double has genus 2g + b - 1.
+    for (const auto& [name, genus] : {std::pair{"head", 2}, std::pair{"lion", 4}}) {
+        SCOPED_TRACE(name);
+        const DoubleCover dc = double_cover(*test::corpus_mesh(name));
+        EXPECT_TRUE(dc.mesh.is_closed());
+        const Topology t = compute_topology(dc.mesh);
+        EXPECT_EQ(t.components, 1);
+        EXPECT_EQ(t.genus, genus);
+    }
 }
 
 TEST(CorpusTopology, MidpointSubdivisionOfEightKeepsGenusTwo) {
-    const auto eight = load_corpus("eight");
-    ASSERT_NE(eight, nullptr);
+    const auto eight = test::corpus_mesh("eight");
     const MeshView fine = subdivide_midpoint(*eight);
     EXPECT_EQ(fine.n_faces(), 4 * eight->n_faces());
     const Topology t = compute_topology(fine);

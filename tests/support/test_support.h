@@ -4,14 +4,23 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <string>
 #include <sys/wait.h>
+
+#include "holoflow/engine/mesh_loader.h"
 
 namespace holoflow::test {
 
 inline std::string corpus(const std::string& name) {
     return std::string(HOLOFLOW_CORPUS_DIR) + "/" + name;
+}
+
+//! A libcgal-demo mesh loaded with the engine; the corpus is always unpacked by the build, so a
+//! missing file is a test failure (an exception), never a skip.
+inline std::shared_ptr<const MeshView> corpus_mesh(const std::string& name) {
+    return engine::load_mesh(corpus(name + ".off")).mesh;
 }
 
 inline std::string shared_mesh(const std::string& name) {

@@ -14,9 +14,11 @@ namespace holoflow::kernels {
 //! A holomorphic 1-form integrated over the fundamental domain.
 struct ConformalMap {
     std::vector<std::complex<double>> wedge_uv;  //!< one complex coordinate per wedge
-    std::vector<Index> corner_wedge;             //!< #H (corner h at tail(h)) -> wedge
     std::vector<double> conformal_factor;        //!< #V: mean over the one-ring of |tau(e)|^2/|e|^2
-    std::complex<double> corner_uv(Index h) const { return wedge_uv[corner_wedge[h]]; }
+    //! Coordinate of corner h (at tail(h)); wedges are the homology basis' corner_wedge.
+    std::complex<double> corner_uv(const HomologyBasis& homology, Index h) const {
+        return wedge_uv[homology.corner_wedge[h]];
+    }
 };
 
 //! \brief Integrates the form `tau` (one complex value per edge, along E(e,0) -> E(e,1)) by a

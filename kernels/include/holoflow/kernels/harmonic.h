@@ -17,6 +17,19 @@ namespace holoflow::kernels {
 Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
                                const Eigen::MatrixXd& omega);
 
+//! \brief Potential f (#V x k) of the harmonic part of closed 1-forms: L f = -delta(eta), so
+//! eta + d f is co-closed for the weights w. Vertex functions are shared by every triangulation
+//! of the same vertices, so f computed on an intrinsic triangulation corrects the forms on the
+//! mesh's own edges too. All k right-hand sides go through one solve; f = 0 at pinned vertices.
+//! \throw InvalidInput on mismatched sizes; SolverFailure from the solve.
+Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> w,
+                                   const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
+                                   std::span<const Index> pinned);
+
+//! omega += d f along E(e,0) -> E(e,1), column by column (in parallel on large meshes).
+//! \throw InvalidInput on mismatched sizes.
+void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega);
+
 //! \brief Harmonic part of closed 1-forms (DESIGN 2.3): omega = eta + d f with L f = -delta eta,
 //! the co-closed representative of eta's cohomology class for the weights w (delta omega = 0).
 //! E are the edges (1-forms measured from E(e,0) to E(e,1)), eta is #E x k, `factor` the Cholesky

@@ -64,8 +64,8 @@ struct MeshView {
 };
 
 //! Halfedges of a triangle list grouped by their unordered vertex pair: group g is
-//! `halfedges[group_start[g] .. group_start[g + 1])`. Linear time (counting sort on the smaller
-//! vertex, then a sort inside each vertex's bucket), also for vertices of huge valence.
+//! `halfedges[group_start[g] .. group_start[g + 1])`. A counting sort on the smaller vertex,
+//! then a sort inside each vertex's bucket: O(H log d) for valence d, never quadratic in d.
 struct HalfedgeGroups {
     std::vector<Index> halfedges;
     std::vector<Index> group_start;
