@@ -7,6 +7,7 @@
 #include <iostream>
 #include <new>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -14,6 +15,8 @@
 #include "holoflow/engine/mesh_loader.h"
 #include "holoflow/engine/output.h"
 #include "holoflow/engine/report.h"
+#include "holoflow/engine/segmentation_output.h"
+#include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/topology.h"
 
 namespace {
@@ -111,6 +114,54 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
     return 0;
 }
 
+struct SegmentArgs {
+    MeshArgs mesh;
+    std::string out_dir, mode = "layout", laplacian = "intrinsic";
+    std::vector<holoflow::Index> tips;
+    int max_tips = 8;
+    double hole_size = 0.02;
+    bool json = false;
+};
+
+int run_segment(const SegmentArgs& args) {
+    const std::filesystem::path folder(args.out_dir);
+    engine::prepare_output_folder(folder);
+    const engine::LoadedMesh loaded = engine::load_mesh(args.mesh.path, args.mesh.options());
+    engine::SegmentOptions options;
+    options.conformal.laplacian = args.laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic
+                                                                : engine::LaplacianKind::IntrinsicDelaunay;
+    options.mode = args.mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
+    options.tips = args.tips;
+    options.max_tips = args.max_tips;
+    options.hole_size = args.hole_size;
+    const engine::SegmentationResult result = engine::segment(*loaded.mesh, options);
+    nlohmann::json report = engine::segmentation_report(result);
+    report["file"] = args.mesh.path;
+    const engine::SegmentationPicture picture = engine::segmentation_picture(result);
+    engine::write_file_atomic(folder / "segments.ply",
+                              [&](std::ostream& out) { engine::write_segments_ply(out, picture); });
+    engine::write_file_atomic(folder / "patches.obj",
+                              [&](std::ostream& out) { engine::write_patches_obj(out, picture); });
+    engine::write_file_atomic(folder / "trajectories.obj",
+                              [&](std::ostream& out) { engine::write_trajectories_obj(out, picture); });
+    engine::write_file_atomic(folder / "domains.svg",
+                              [&](std::ostream& out) { engine::write_domains_svg(out, picture); });
+    engine::write_file_atomic(folder / "complex.json", engine::complex_report(result).dump(1) + "\n");
+    engine::write_file_atomic(folder / "segmentation.json", report.dump(2) + "\n");
+    if (args.json) {
+        std::cout << report.dump(2) << std::endl;
+    } else {
+        std::cout << "genus " << report["genus"] << ", working genus " << report["working_genus"] << ", "
+                  << report["zero_count"] << " zeros (" << report["artifacts"] << " artifact clusters), "
+                  << report["trajectories"] << " trajectories (" << report["unfinished_trajectories"]
+                  << " unfinished), " << report["patch_count"] << " patches " << report["patch_types"].dump()
+                  << ", flipped uv triangles " << report["flipped_uv_triangles"] << ", rectangle error "
+                  << report["rectangle_error_max"] << "\nwrote segments.ply, patches.obj, trajectories.obj, "
+                  << "domains.svg, complex.json, segmentation.json in " << folder.string() << "\n";
+    }
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -136,6 +187,25 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
     conformal->add_flag("--json", conformal_json, "also print conformal.json to stdout");
 
+    SegmentArgs seg;
+    CLI::App* segment = app.add_subcommand(
+        "segment", "holomorphic flow segmentation: zeros, critical trajectories, rectangular patches");
+    seg.mesh.add_to(*segment);
+    segment->add_option("-o,--output", seg.out_dir, "output folder")->required();
+    segment->add_option("--mode", seg.mode, "vertical: the paper's trajectories; layout: both families, "
+                                            "motorcycle rule, every patch a rectangle")
+        ->check(CLI::IsMember({"vertical", "layout"}));
+    segment->add_option("--laplacian", seg.laplacian, "cotan weights: intrinsic Delaunay or the mesh itself")
+        ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
+    segment->add_option("--tips", seg.tips, "closed genus 0 / disks: vertex ids to slice holes at "
+                                            "(default: detected extremities)")
+        ->delimiter(',');
+    segment->add_option("--max-tips", seg.max_tips, "most tips detected automatically")
+        ->check(CLI::Range(2, 64));
+    segment->add_option("--hole-size", seg.hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
+        ->check(CLI::Range(0.0, 0.5));
+    segment->add_flag("--json", seg.json, "also print segmentation.json to stdout");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
@@ -153,5 +223,6 @@ int main(int argc, char** argv) {
         return run_guarded([&] {
             return run_conformal(conformal_mesh, conformal_out, conformal_laplacian, conformal_json);
         });
+    if (segment->parsed()) return run_guarded([&] { return run_segment(seg); });
     return report_error("usage", "no subcommand", kExitUsage);
 }

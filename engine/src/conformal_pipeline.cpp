@@ -1,9 +1,9 @@
 #include "holoflow/engine/conformal_pipeline.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
+#include "holoflow/engine/stage_clock.h"
 #include "holoflow/kernels/cholesky.h"
 #include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/errors.h"
@@ -17,20 +17,6 @@ namespace {
 using Complex = std::complex<double>;
 
 constexpr double kNegativeWeightTol = 1e-12;
-
-class StageClock {
- public:
-    explicit StageClock(StageTimes& times) : times_(times) {}
-    void lap(const char* stage) {
-        const auto now = std::chrono::steady_clock::now();
-        times_.emplace_back(stage, std::chrono::duration<double, std::milli>(now - last_).count());
-        last_ = now;
-    }
-
- private:
-    StageTimes& times_;
-    std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-};
 
 }  // namespace
 

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "holoflow/engine/stage_clock.h"
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/double_cover.h"
 #include "holoflow/kernels/holomorphic.h"
@@ -26,8 +27,6 @@ struct ConformalOptions {
     std::optional<Eigen::MatrixXd> closed_forms;
 };
 
-//! Wall time of each stage in order, milliseconds.
-using StageTimes = std::vector<std::pair<std::string, double>>;
 
 //! Everything the conformal stage computes for one mesh (DESIGN 2.2-2.4).
 struct ConformalResult {

@@ -1,0 +1,67 @@
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "holoflow/engine/conformal_pipeline.h"
+#include "holoflow/engine/segmentation_output.h"
+#include "holoflow/kernels/flow_cut.h"
+#include "holoflow/kernels/patches.h"
+#include "holoflow/kernels/trajectories.h"
+#include "holoflow/kernels/zero_fans.h"
+#include "holoflow/kernels/zeros.h"
+
+namespace holoflow::engine {
+
+enum class SegmentMode {
+    Vertical,  //!< the paper's: vertical critical trajectories only
+    Layout,    //!< both families with the motorcycle rule: every patch a rectangle
+};
+
+struct SegmentOptions {
+    ConformalOptions conformal;
+    SegmentMode mode = SegmentMode::Layout;
+    //! Closed genus 0 and disks: tips to slice (input vertex ids); empty = detect automatically.
+    std::vector<Index> tips;
+    int max_tips = 8;           //!< automatic detection keeps at most this many
+    double hole_size = 0.02;    //!< hole radius, fraction of sqrt(area / 4 pi)
+};
+
+//! Everything the segmentation computes for one mesh (DESIGN 2.5-2.7).
+struct SegmentationResult {
+    int input_genus = 0;
+    //! The open or closed surface the trajectories live on: the input, or the input with tips
+    //! sliced (closed genus 0 / disks); open ones are traced on their double cover's first copy.
+    std::shared_ptr<const MeshView> traced_input;
+    std::vector<Index> tips;                  //!< input vertex ids sliced
+    std::vector<Index> traced_input_vertex;   //!< traced_input vertex -> input vertex
+    ConformalResult conformal;
+    kernels::ZeroSet zeros;                   //!< on the working (closed) surface
+    kernels::RegularisedForm regular;         //!< traced_input with zero fans
+    std::vector<Index> start_zero;            //!< per trace start: index into zeros.zeros
+    std::vector<kernels::TraceStart> starts;  //!< on regular.mesh
+    std::vector<kernels::Trajectory> trajectories;
+    kernels::CutMesh cut;
+    kernels::Patches patches;
+    kernels::FlowComplex complex;
+    SegmentMode mode = SegmentMode::Layout;
+    StageTimes timings_ms;                    //!< conformal stages, then segmentation stages
+};
+
+//! \brief The holomorphic flow segmentation of a validated, connected mesh of any genus.
+//! \throw InvalidInput (several components, genus-0 surface where no tip can be sliced),
+//! SolverFailure.
+SegmentationResult segment(const MeshView& input, const SegmentOptions& options = {});
+
+//! `segmentation.json` (keys documented in README).
+nlohmann::json segmentation_report(const SegmentationResult& result);
+
+//! `complex.json`: the flow complex G = (V, E, F) with adjacency (format in README).
+nlohmann::json complex_report(const SegmentationResult& result);
+
+//! The arrays the picture writers draw.
+SegmentationPicture segmentation_picture(const SegmentationResult& result);
+
+}  // namespace holoflow::engine

@@ -1,0 +1,322 @@
+#include "holoflow/engine/segmentation_pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/tips.h"
+#include "holoflow/kernels/topology.h"
+
+namespace holoflow::engine {
+namespace {
+
+using Complex = std::complex<double>;
+using kernels::Trajectory;
+using kernels::TrajectoryFamily;
+
+// The cover's form restricted to its first copy, which is the open input (same faces, same
+// vertex order, so halfedge h of the input is halfedge h of the cover).
+Eigen::VectorXcd restrict_to_first_copy(const MeshView& open, const MeshView& cover, const Eigen::VectorXcd& tau) {
+    Eigen::VectorXcd out(open.n_edges());
+    for (Index e = 0; e < open.n_edges(); ++e) {
+        const Index h = open.edge_halfedge[e];
+        out(e) = static_cast<double>(cover.edge_sign(h)) * tau(cover.halfedge_edge[h]);
+    }
+    return out;
+}
+
+// Clusters of the working surface as regions of the traced surface. On a double cover only the
+// clusters that reach the first copy count (the others are their mirrors); mirrored vertices
+// fold back onto the first copy.
+std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r, std::vector<Index>& region_zero) {
+    const kernels::ZeroSet& z = r.zeros;
+    const kernels::DoubleCover* cover = r.conformal.cover.get();
+    const Index first_copy_vertices = r.traced_input->n_vertices();
+    const Index first_copy_faces = r.traced_input->n_faces();
+    std::vector<Index> zero_of_cluster(z.clusters.size(), -1);
+    for (Index i = 0; i < static_cast<Index>(z.zeros.size()); ++i) zero_of_cluster[z.zeros[i].cluster] = i;
+    std::vector<kernels::ZeroRegion> regions;
+    for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
+        const kernels::ZeroCluster& cluster = z.clusters[c];
+        if (cluster.vertices.empty() || cluster.index < 0) continue;
+        if (cover && cluster.vertices.front() >= first_copy_vertices) continue;  // a mirror
+        kernels::ZeroRegion region;
+        region.order = std::max(cluster.index, 0);
+        for (Index v : cluster.vertices) region.vertices.push_back(cover ? cover->original_vertex[v] : v);
+        std::sort(region.vertices.begin(), region.vertices.end());
+        region.vertices.erase(std::unique(region.vertices.begin(), region.vertices.end()), region.vertices.end());
+        const Index zi = zero_of_cluster[c];
+        if (zi >= 0) {
+            const kernels::Zero& zero = z.zeros[zi];
+            if (zero.vertex >= 0) region.vertex = cover ? cover->original_vertex[zero.vertex] : zero.vertex;
+            if (zero.face >= 0) {
+                if (!cover || zero.face < first_copy_faces) {
+                    region.face = zero.face;
+                    region.barycentric = zero.barycentric;
+                    region.image_offset = zero.image_offset;
+                } else {
+                    // Mirror face (corners 0, 2, 1 of the input face); its image is conjugate,
+                    // so only the point is kept (a boundary zero takes a boundary vertex).
+                    region.face = cover->original_face[zero.face];
+                    region.barycentric = {zero.barycentric[0], zero.barycentric[2], zero.barycentric[1]};
+                    region.image_offset = std::conj(zero.image_offset);
+                }
+            }
+        }
+        regions.push_back(std::move(region));
+        region_zero.push_back(zi);
+    }
+    return regions;
+}
+
+}  // namespace
+
+SegmentationResult segment(const MeshView& input, const SegmentOptions& options) {
+    SegmentationResult r;
+    r.mode = options.mode;
+    StageTimes seg_times;
+    StageClock clock(seg_times);
+
+    const kernels::Topology topology = kernels::compute_topology(input);
+    r.input_genus = topology.genus;
+    HOLOFLOW_REQUIRE(topology.components == 1, "the mesh has " + std::to_string(topology.components) +
+                                                   " components; use --component largest");
+    // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1).
+    if (topology.genus == 0 && topology.boundary_loops <= 1) {
+        std::vector<Index> tips = options.tips;
+        if (tips.empty()) {
+            kernels::TipOptions tip_options;
+            tip_options.max_tips = std::max(2, options.max_tips);
+            tip_options.min_tips = topology.boundary_loops == 0 ? 2 : 1;
+            tips = kernels::find_tips(input, tip_options);
+        }
+        kernels::SlicedMesh sliced = kernels::slice_tips(input, tips, options.hole_size);
+        r.tips = sliced.tips;
+        r.traced_input_vertex = std::move(sliced.original_vertex);
+        r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
+        clock.lap("tip_slicing");
+    } else {
+        HOLOFLOW_REQUIRE(options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
+        r.traced_input = std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input);
+        r.traced_input_vertex.resize(input.n_vertices());
+        std::iota(r.traced_input_vertex.begin(), r.traced_input_vertex.end(), 0);
+    }
+    const MeshView& traced = *r.traced_input;
+
+    r.conformal = compute_conformal(traced, options.conformal);
+    StageClock seg_clock(seg_times);
+    const MeshView& surface = *r.conformal.surface;
+    r.zeros = kernels::find_zeros(surface, r.conformal.tau);
+    seg_clock.lap("zeros");
+
+    const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
+    const Eigen::VectorXcd tau = r.conformal.double_covered
+                                     ? restrict_to_first_copy(traced, surface, r.conformal.tau)
+                                     : r.conformal.tau;
+    std::vector<Index> region_zero;
+    const std::vector<kernels::ZeroRegion> regions =
+        torus ? std::vector<kernels::ZeroRegion>{} : zero_regions(r, region_zero);
+    r.regular = kernels::regularise_zeros(traced, tau, regions);
+    seg_clock.lap("zero_fans");
+
+    // Starts: each zero's fan centre, or (fan failed) its cluster's best vertex.
+    std::vector<Index> regular_of(traced.n_vertices(), -1);
+    for (Index v = 0; v < r.regular.mesh.n_vertices(); ++v)
+        if (r.regular.original_vertex[v] >= 0) regular_of[r.regular.original_vertex[v]] = v;
+    for (std::size_t i = 0; i < regions.size(); ++i) {
+        if (regions[i].order <= 0) continue;
+        Index v = r.regular.region_vertex[i];
+        if (v < 0) {
+            const Index fallback = regions[i].vertex >= 0 ? regions[i].vertex
+                                   : regions[i].face >= 0 ? traced.F(regions[i].face, 0)
+                                                          : regions[i].vertices.front();
+            v = regular_of[fallback];
+        }
+        if (v < 0) continue;
+        r.starts.push_back({v, regions[i].order});
+        r.start_zero.push_back(region_zero[i]);
+    }
+    std::vector<TrajectoryFamily> families{TrajectoryFamily::Vertical};
+    if (options.mode == SegmentMode::Layout) families.push_back(TrajectoryFamily::Horizontal);
+    kernels::TraceOptions trace_options;
+    trace_options.motorcycle = options.mode == SegmentMode::Layout;
+    r.trajectories = kernels::trace_trajectories(r.regular.mesh, r.regular.tau, r.starts, families, trace_options);
+    seg_clock.lap("tracing");
+
+    r.cut = kernels::cut_along_trajectories(r.regular.mesh, r.regular.tau, r.trajectories);
+    std::vector<char> border(r.cut.mesh.n_edges(), 0);
+    for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) border[e] = r.cut.edge_trajectory[e] >= 0;
+    if (torus) {
+        // No zeros: the torus opens along its homology cut graph into one parallelogram.
+        for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) {
+            const Index h = r.cut.mesh.edge_halfedge[e];
+            const Index f = r.cut.original_face[MeshView::face(h)];
+            const Index k = h % 3;
+            const Index old_h = 3 * f + k;  // no trajectories: faces and corners unchanged
+            border[e] = r.conformal.homology.cut_edge[surface.halfedge_edge[old_h]];
+            if (border[e]) r.cut.edge_trajectory[e] = -2;  // the homology cut, not a trajectory
+        }
+    }
+    seg_clock.lap("cutting");
+    r.patches = kernels::compute_patches(r.cut.mesh, r.cut.tau, border);
+    std::vector<char> is_zero(r.cut.mesh.n_vertices(), 0);
+    for (const kernels::TraceStart& s : r.starts) is_zero[s.vertex] = 1;  // cut keeps old vertex ids
+    r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);
+    seg_clock.lap("patches");
+
+    r.timings_ms = r.conformal.timings_ms;
+    for (const auto& stage : seg_times) r.timings_ms.push_back(stage);
+    return r;
+}
+
+namespace {
+
+const char* end_name(Trajectory::End end) {
+    switch (end) {
+        case Trajectory::End::Zero: return "zero";
+        case Trajectory::End::Boundary: return "boundary";
+        case Trajectory::End::Collision: return "collision";
+        case Trajectory::End::LengthCap: return "length_cap";
+    }
+    return "?";
+}
+
+const char* type_name(kernels::PatchInfo::Type type) {
+    switch (type) {
+        case kernels::PatchInfo::Type::Disk: return "disk";
+        case kernels::PatchInfo::Type::Cylinder: return "cylinder";
+        case kernels::PatchInfo::Type::Other: return "other";
+    }
+    return "?";
+}
+
+}  // namespace
+
+nlohmann::json segmentation_report(const SegmentationResult& r) {
+    const kernels::ZeroSet& z = r.zeros;
+    nlohmann::json zeros = nlohmann::json::array();
+    for (const kernels::Zero& zero : z.zeros) {
+        nlohmann::json j = {{"order", zero.order}, {"cluster", zero.cluster}};
+        if (zero.vertex >= 0) j["vertex"] = zero.vertex;
+        if (zero.face >= 0) {
+            j["face"] = zero.face;
+            j["barycentric"] = zero.barycentric;
+        }
+        zeros.push_back(j);
+    }
+    nlohmann::json types = {{"disk", 0}, {"cylinder", 0}, {"other", 0}};
+    Index flipped = 0;
+    double rect_max = 0, distortion_max = 0, distortion_sum = 0;
+    Index faces = 0;
+    nlohmann::json patches = nlohmann::json::array();
+    for (const kernels::PatchInfo& p : r.patches.info) {
+        types[type_name(p.type)] = types[type_name(p.type)].get<int>() + 1;
+        flipped += p.flipped_uv_triangles;
+        rect_max = std::max(rect_max, p.rectangle_error);
+        distortion_max = std::max(distortion_max, p.distortion_max);
+        distortion_sum += p.distortion_mean * p.faces;
+        faces += p.faces;
+        patches.push_back({{"type", type_name(p.type)},
+                           {"faces", p.faces},
+                           {"euler_characteristic", p.euler_characteristic},
+                           {"border_loops", p.border_loops},
+                           {"width", p.width},
+                           {"height", p.height},
+                           {"rectangle_error", p.rectangle_error},
+                           {"flipped_uv_triangles", p.flipped_uv_triangles},
+                           {"distortion_mean", p.distortion_mean},
+                           {"distortion_max", p.distortion_max}});
+    }
+    nlohmann::json ends = {{"zero", 0}, {"boundary", 0}, {"collision", 0}, {"length_cap", 0}};
+    Index unfinished = 0;
+    for (const Trajectory& t : r.trajectories) {
+        ends[end_name(t.end)] = ends[end_name(t.end)].get<int>() + 1;
+        unfinished += t.end == Trajectory::End::LengthCap;
+    }
+    nlohmann::json timings = nlohmann::json::object();
+    double total = 0;
+    for (const auto& [stage, ms] : r.timings_ms) {
+        timings[stage] = ms;
+        total += ms;
+    }
+    timings["total"] = total;
+    return {
+        {"genus", r.input_genus},
+        {"working_genus", r.conformal.basis.genus},
+        {"double_covered", r.conformal.double_covered},
+        {"mode", r.mode == SegmentMode::Layout ? "layout" : "vertical"},
+        {"tips", r.tips},
+        {"zero_count", z.total_order},
+        {"zero_index_total", z.total_index},
+        {"zeros", zeros},
+        {"artifacts", z.artifact_clusters},
+        {"artifact_details",
+         {{"clusters", z.artifact_clusters},
+          {"merged_negative_clusters", z.merged_negative_clusters},
+          {"nonpositive_winding_vertices", z.nonpositive_winding_vertices},
+          {"flipped_faces", std::count(z.face_flip.begin(), z.face_flip.end(), 1)}}},
+        {"zero_fans",
+         {{"failed", r.regular.failed_regions},
+          {"removed_vertices", r.regular.removed_vertices}}},
+        {"trajectories", r.trajectories.size()},
+        {"trajectory_ends", ends},
+        {"unfinished_trajectories", unfinished},
+        {"skipped_segments", r.cut.skipped_segments},
+        {"patches", patches},
+        {"patch_count", r.patches.info.size()},
+        {"patch_types", types},
+        {"flipped_uv_triangles", flipped},
+        {"rectangle_error_max", rect_max},
+        {"conformal_distortion", {{"mean", faces ? distortion_sum / faces : 0.0}, {"max", distortion_max}}},
+        {"vertices", r.cut.mesh.n_vertices()},
+        {"faces", r.cut.mesh.n_faces()},
+        {"timings_ms", timings},
+    };
+}
+
+nlohmann::json complex_report(const SegmentationResult& r) {
+    const kernels::FlowComplex& g = r.complex;
+    nlohmann::json nodes = nlohmann::json::array(), edges = nlohmann::json::array(), faces = nlohmann::json::array();
+    for (const auto& n : g.nodes) {
+        const auto p = r.cut.mesh.V.row(n.vertex);
+        nodes.push_back({{"vertex", n.vertex}, {"zero", n.zero}, {"position", {p(0), p(1), p(2)}}});
+    }
+    for (const auto& piece : g.pieces) {
+        std::string kind = "boundary";
+        if (piece.label == -2) kind = "homology_cut";
+        else if (piece.label >= 0)
+            kind = r.trajectories[piece.label].family == TrajectoryFamily::Vertical ? "vertical" : "horizontal";
+        edges.push_back({{"from", piece.from},
+                         {"to", piece.to},
+                         {"kind", kind},
+                         {"trajectory", piece.label},
+                         {"patches", piece.patches},
+                         {"vertices", piece.vertices}});
+    }
+    for (std::size_t p = 0; p < g.patch_pieces.size(); ++p)
+        faces.push_back({{"patch", p}, {"edges", g.patch_pieces[p]}});
+    return {{"format", "holoflow flow complex 1"}, {"vertices", nodes}, {"edges", edges}, {"faces", faces}};
+}
+
+SegmentationPicture segmentation_picture(const SegmentationResult& r) {
+    SegmentationPicture pic;
+    pic.V = r.cut.mesh.V;
+    pic.F = r.cut.mesh.F;
+    pic.face_patch = r.patches.face_patch;
+    pic.corner_uv = r.patches.corner_uv;
+    for (const auto& p : r.patches.info) pic.patch_size.push_back({p.width, p.height});
+    // Trajectories as polylines along the cut mesh: the pieces of the complex, by family.
+    for (const auto& piece : r.complex.pieces) {
+        SegmentationPicture::Polyline line;
+        line.family = piece.label < 0 ? SegmentationPicture::Family::Boundary
+                      : r.trajectories[piece.label].family == TrajectoryFamily::Vertical
+                          ? SegmentationPicture::Family::Vertical
+                          : SegmentationPicture::Family::Horizontal;
+        for (Index v : piece.vertices) line.points.push_back(r.cut.mesh.V.row(v).transpose());
+        pic.trajectories.push_back(std::move(line));
+    }
+    return pic;
+}
+
+}  // namespace holoflow::engine

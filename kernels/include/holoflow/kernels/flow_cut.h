@@ -1,0 +1,32 @@
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "holoflow/kernels/mesh_view.h"
+#include "holoflow/kernels/trajectories.h"
+
+namespace holoflow::kernels {
+
+//! A mesh refined so that traced trajectories run along its edges.
+struct CutMesh {
+    MeshView mesh;
+    Eigen::VectorXcd tau;                 //!< the form on the new edges (closed)
+    std::vector<Index> original_face;     //!< per face: the face of the traced mesh it lies in
+    std::vector<Index> original_vertex;   //!< per vertex: traced-mesh vertex, -1 if inserted
+    std::vector<Index> edge_trajectory;   //!< per edge: trajectory running along it, or -1
+    Index skipped_segments = 0;           //!< segments that could not be inserted (reported)
+};
+
+//! \brief Splits every face crossed by the trajectories: crossing points become vertices on the
+//! edges (shared by both faces), collision points vertices inside faces, and each face is cut
+//! along its segments (purely combinatorially: a segment splits the one sub-polygon that has
+//! both its end points, with the collision points of later curves on it in arrival order) and
+//! the pieces triangulated by ear clipping in the face's image chart. Faces in parallel.
+//! \pre trajectories traced on `mesh` with `tau` (trace_trajectories).  \throw InvalidInput.
+CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                               std::span<const Trajectory> trajectories);
+
+}  // namespace holoflow::kernels

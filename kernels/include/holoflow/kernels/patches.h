@@ -1,0 +1,67 @@
+#pragma once
+
+#include <array>
+#include <complex>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::kernels {
+
+struct PatchInfo {
+    enum class Type : std::uint8_t { Disk, Cylinder, Other };
+    Type type = Type::Other;
+    Index faces = 0;
+    int euler_characteristic = 0;
+    int border_loops = 0;
+    double width = 0, height = 0;  //!< extent of its uv (the rectangle)
+    //! Largest distance of a border vertex's uv from the rectangle's sides, over max(width, height):
+    //! 0 when the border is made of iso-u and iso-v pieces on the rectangle.
+    double rectangle_error = 0;
+    Index flipped_uv_triangles = 0;   //!< negative signed uv area beyond rounding
+    double distortion_mean = 0, distortion_max = 0;  //!< conformal distortion (1 = conformal)
+};
+
+//! Patches of a cut mesh: faces joined across edges that are neither borders nor boundary.
+struct Patches {
+    std::vector<Index> face_patch;                //!< #F, patches numbered by smallest face
+    std::vector<std::complex<double>> corner_uv;  //!< 3 #F: uv of corner 3 f + k in its patch,
+                                                  //!< translated so the rectangle starts at 0
+    std::vector<PatchInfo> info;
+};
+
+//! \brief Flood fill across non-border edges, then per patch the integral of `tau` by a walk
+//! over its faces (single valued on a disk; a cylinder is opened along the walk's seam), its
+//! topology (Euler characteristic and border loops), rectangle, rectangle fit error, flipped uv
+//! triangles and conformal distortion against the 3D triangles.
+//! \pre `border` has #E flags, tau #E values.  \throw InvalidInput.
+Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border);
+
+//! The flow complex G = (V, E, F): nodes (zeros, corners where borders meet or change kind),
+//! pieces (maximal border paths between nodes, or node-less loops) and patches.
+struct FlowComplex {
+    struct Node {
+        Index vertex = -1;
+        bool zero = false;
+    };
+    struct Piece {
+        std::vector<Index> vertices;  //!< path along mesh vertices (first = last for a loop)
+        Index from = -1, to = -1;     //!< node ids, -1 for a node-less loop
+        Index label = -1;             //!< trajectory id, -1 for the surface boundary
+        std::array<Index, 2> patches{-1, -1};  //!< left and right of its first edge (-1: outside)
+    };
+    std::vector<Node> nodes;
+    std::vector<Piece> pieces;
+    std::vector<std::vector<Index>> patch_pieces;  //!< per patch: its pieces, ascending
+};
+
+//! \brief Builds G from the cut mesh: `edge_label` per edge is the trajectory running along it
+//! (-1 none); boundary edges are borders labelled -1. A vertex is a node when its border degree
+//! is not 2, its two border edges differ in label, or it is a zero.
+FlowComplex flow_complex(const MeshView& mesh, std::span<const Index> edge_label,
+                         std::span<const Index> face_patch, std::span<const char> is_zero);
+
+}  // namespace holoflow::kernels

@@ -1,0 +1,80 @@
+#pragma once
+
+#include <array>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "holoflow/kernels/mesh_view.h"
+
+namespace holoflow::kernels {
+
+enum class TrajectoryFamily : std::uint8_t { Vertical, Horizontal };  //!< iso-u, iso-v
+
+//! Where a traced curve crosses halfedge h (leaving face(h) for face(twin h)): tail + t (head - tail).
+struct EdgeCrossing {
+    Index halfedge = kNoHalfedge;
+    double t = 0;
+    double length = 0;  //!< image length travelled up to here
+};
+
+struct Trajectory {
+    enum class End : std::uint8_t {
+        Zero,       //!< reached a zero vertex (its own start: a closed critical loop)
+        Boundary,   //!< crossed a boundary edge, or reached a boundary vertex at its level
+        Collision,  //!< hit an earlier trajectory (layout mode, motorcycle rule)
+        LengthCap,  //!< stopped by the length cap: unfinished
+    };
+    Index start_vertex = -1;  //!< the zero it leaves from
+    Index first_face = -1;    //!< face of the first segment (around start_vertex)
+    TrajectoryFamily family = TrajectoryFamily::Vertical;
+    //! In order; segment j < crossings.size() lies in face(crossings[j].halfedge) and ends there.
+    std::vector<EdgeCrossing> crossings;
+    End end = End::LengthCap;
+    //! Zero, or Boundary at a vertex: a last segment runs from the last crossing to this vertex.
+    Index end_vertex = -1;
+    //! Collision: a last segment runs to this point of its face (barycentric of F(face, 0..2)),
+    //! on segment `blocker_segment` of trajectory `blocker`, which got there at image length
+    //! `blocker_length` (its own arrival order along the blocker).
+    std::array<double, 3> end_barycentric{};
+    Index blocker = -1, blocker_segment = -1;
+    double blocker_length = 0;
+    double length = 0;  //!< image length travelled (|delta v| vertical, |delta u| horizontal)
+
+    //! A last segment after the last crossing (ends at a vertex or a collision point).
+    bool has_tail_segment() const { return end == End::Zero || end == End::Collision || end_vertex >= 0; }
+    Index n_segments() const { return static_cast<Index>(crossings.size()) + (has_tail_segment() ? 1 : 0); }
+    //! Face of segment j.
+    Index segment_face(const MeshView& mesh, Index j) const;
+};
+
+struct TraceOptions {
+    bool motorcycle = false;  //!< layout mode: a trajectory stops where it hits an earlier one
+    //! Length cap in units of sqrt(total image area).
+    double length_cap = 16;
+};
+
+//! The start vertices' order: a zero of order k at vertex v (winding k + 1 of its fan).
+struct TraceStart {
+    Index vertex = -1;
+    int order = 0;
+};
+
+//! \brief Critical trajectories of the closed form `tau` on a mesh without flipped image
+//! triangles near the zeros (regularise_zeros): from each zero vertex, every direction where the
+//! level u = u(zero) (vertical) or v = v(zero) (horizontal) leaves its one-ring. Traced face by
+//! face with the level's offsets carried along edges (d(head) = d(tail) + Re/Im tau), a vertex
+//! exactly at the level counting as above it (symbolic perturbation), so a curve never passes
+//! through a vertex and every face has 0 or 2 crossing edges. Stops at zero vertices (within
+//! 1e-9 of the local edge image), boundary edges, boundary vertices at the level, the length
+//! cap, or (motorcycle) an earlier trajectory: all curves advance in rounds of doubling image
+//! length concurrently, collisions are resolved afterwards in order of the later arrival time
+//! (ties by id), so the result does not depend on the thread count.
+//! `families`: which families to trace. \throw InvalidInput on bad starts.
+std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                           std::span<const TraceStart> starts,
+                                           std::span<const TrajectoryFamily> families,
+                                           const TraceOptions& options = {});
+
+}  // namespace holoflow::kernels

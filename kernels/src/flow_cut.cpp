@@ -1,0 +1,299 @@
+#include "holoflow/kernels/flow_cut.h"
+
+#include <algorithm>
+#include <complex>
+#include <map>
+
+#include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/parallel.h"
+
+namespace holoflow::kernels {
+namespace {
+
+using Complex = std::complex<double>;
+constexpr Index kParallelFaces = 2000;
+
+// A segment of a trajectory inside one face, by point ids.
+struct FaceSegment {
+    Index trajectory, from, to;
+    bool collision_tail;
+    double stop_length;
+    std::vector<Index> inner;  // collision points of other curves on it, from `from` to `to`
+};
+
+struct Polygon {
+    std::vector<Index> points;  // counter-clockwise
+    std::vector<Index> edge;    // edge k (points[k] -> points[k+1]): trajectory on it or -1
+};
+
+struct Triangle {
+    std::array<Index, 3> v;
+    std::array<Index, 3> cut;  // trajectory along edge k (v[k] -> v[k+1]) or -1
+};
+
+double cross(Complex a, Complex b) { return a.real() * b.imag() - a.imag() * b.real(); }
+
+// Splits `poly` by a chord between two of its points; false if they are not both on it.
+bool split(std::vector<Polygon>& polys, const FaceSegment& s) {
+    for (std::size_t k = 0; k < polys.size(); ++k) {
+        Polygon& p = polys[k];
+        const auto ip = std::find(p.points.begin(), p.points.end(), s.from) - p.points.begin();
+        const auto iq = std::find(p.points.begin(), p.points.end(), s.to) - p.points.begin();
+        const auto m = static_cast<std::ptrdiff_t>(p.points.size());
+        if (ip == m || iq == m) continue;
+        if (s.inner.empty() && ((ip + 1) % m == iq || (iq + 1) % m == ip)) {
+            p.edge[(ip + 1) % m == iq ? ip : iq] = s.trajectory;  // already an edge: mark it
+            return true;
+        }
+        Polygon a, b;
+        // a: boundary from p to q, back along the chord; b: boundary from q to p, then the chord.
+        for (auto i = ip; i != iq; i = (i + 1) % m) a.points.push_back(p.points[i]), a.edge.push_back(p.edge[i]);
+        a.points.push_back(s.to);
+        for (auto it = s.inner.rbegin(); it != s.inner.rend(); ++it) a.edge.push_back(s.trajectory), a.points.push_back(*it);
+        a.edge.push_back(s.trajectory);
+        for (auto i = iq; i != ip; i = (i + 1) % m) b.points.push_back(p.points[i]), b.edge.push_back(p.edge[i]);
+        b.points.push_back(s.from);
+        for (Index x : s.inner) b.edge.push_back(s.trajectory), b.points.push_back(x);
+        b.edge.push_back(s.trajectory);
+        polys[k] = std::move(a);
+        polys.push_back(std::move(b));
+        return true;
+    }
+    return false;
+}
+
+// Ear clipping in the chart; a fan from the first point when no proper ear is left.
+void triangulate(const Polygon& poly, const std::vector<Complex>& pos, std::vector<Triangle>& out) {
+    std::vector<Index> pts = poly.points, edge = poly.edge;
+    while (pts.size() > 3) {
+        const std::size_t m = pts.size();
+        double scale = 0;
+        for (Index q : pts) scale = std::max(scale, std::norm(pos[q] - pos[pts[0]]));
+        std::size_t ear = m;
+        for (std::size_t i = 0; i < m && ear == m; ++i) {
+            const Complex a = pos[pts[(i + m - 1) % m]], b = pos[pts[i]], c = pos[pts[(i + 1) % m]];
+            if (!(cross(b - a, c - a) > 1e-14 * scale)) continue;
+            bool empty = true;
+            for (std::size_t j = 0; j < m && empty; ++j) {
+                if (j == i || j == (i + 1) % m || j == (i + m - 1) % m) continue;
+                const Complex x = pos[pts[j]];
+                empty = !(cross(b - a, x - a) >= 0 && cross(c - b, x - b) >= 0 && cross(a - c, x - c) >= 0);
+            }
+            if (empty) ear = i;
+        }
+        if (ear == m) ear = 1;  // degenerate polygon: clip anyway (zero-area triangle)
+        const std::size_t i0 = (ear + m - 1) % m, i2 = (ear + 1) % m;
+        out.push_back({{pts[i0], pts[ear], pts[i2]}, {edge[i0], edge[ear], -1}});
+        edge[i0] = -1;  // the diagonal i0 -> i2 replaces edges i0 and ear
+        pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(ear));
+        edge.erase(edge.begin() + static_cast<std::ptrdiff_t>(ear));
+    }
+    if (pts.size() == 3) out.push_back({{pts[0], pts[1], pts[2]}, {edge[0], edge[1], edge[2]}});
+}
+
+}  // namespace
+
+CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                               std::span<const Trajectory> trajectories) {
+    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
+    const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
+    const Index nt = static_cast<Index>(trajectories.size());
+
+    // Points on edges: one per distinct (edge, position along the edge's orientation).
+    std::vector<std::vector<std::pair<double, Index>>> edge_points(mesh.n_edges());
+    std::vector<std::vector<Index>> crossing_point(nt);
+    Index next_id = nv;
+    std::vector<std::pair<Index, double>> point_on_edge;  // new point -> (edge, t along edge)
+    for (Index i = 0; i < nt; ++i) {
+        for (const EdgeCrossing& c : trajectories[i].crossings) {
+            HOLOFLOW_REQUIRE(c.halfedge >= 0 && c.halfedge < mesh.n_halfedges(), "crossing out of range");
+            const Index e = mesh.halfedge_edge[c.halfedge];
+            const double t = mesh.edge_sign(c.halfedge) > 0 ? c.t : 1 - c.t;
+            auto& list = edge_points[e];
+            auto it = std::find_if(list.begin(), list.end(), [&](const auto& p) { return p.first == t; });
+            Index id;
+            if (it != list.end()) {
+                id = it->second;
+            } else {
+                id = next_id++;
+                list.emplace_back(t, id);
+                point_on_edge.emplace_back(e, t);
+            }
+            crossing_point[i].push_back(id);
+        }
+    }
+    for (auto& list : edge_points) std::sort(list.begin(), list.end());
+    // Collision points, inside faces.
+    std::vector<Index> collision_point(nt, -1);
+    std::vector<std::pair<Index, std::array<double, 3>>> point_in_face;  // (face, barycentric)
+    const Index first_inner = next_id;
+    for (Index i = 0; i < nt; ++i)
+        if (trajectories[i].end == Trajectory::End::Collision) {
+            collision_point[i] = next_id++;
+            point_in_face.emplace_back(trajectories[i].segment_face(mesh, trajectories[i].n_segments() - 1),
+                                       trajectories[i].end_barycentric);
+        }
+
+    // Segments by face (CSR), with the collision points that land on each.
+    std::map<std::pair<Index, Index>, std::vector<std::pair<double, Index>>> landing;  // (traj, seg)
+    for (Index i = 0; i < nt; ++i)
+        if (collision_point[i] >= 0)
+            landing[{trajectories[i].blocker, trajectories[i].blocker_segment}].emplace_back(
+                trajectories[i].blocker_length, collision_point[i]);
+    std::vector<std::vector<FaceSegment>> face_segments(nf);
+    for (Index i = 0; i < nt; ++i) {
+        const Trajectory& tr = trajectories[i];
+        const Index segments = tr.n_segments();
+        for (Index j = 0; j < segments; ++j) {
+            FaceSegment s{i, j == 0 ? tr.start_vertex : crossing_point[i][j - 1], -1, false, tr.length, {}};
+            if (j < static_cast<Index>(tr.crossings.size())) s.to = crossing_point[i][j];
+            else if (tr.end == Trajectory::End::Collision) s.to = collision_point[i], s.collision_tail = true;
+            else s.to = tr.end_vertex;
+            if (auto it = landing.find({i, j}); it != landing.end()) {
+                auto list = it->second;
+                std::sort(list.begin(), list.end());
+                for (const auto& [len, id] : list) s.inner.push_back(id);
+            }
+            face_segments[tr.segment_face(mesh, j)].push_back(std::move(s));
+        }
+    }
+
+    // Chart position of every point seen from a face (corner 0 at 0).
+    std::vector<Complex> along(mesh.n_halfedges());
+    for (Index h = 0; h < mesh.n_halfedges(); ++h)
+        along[h] = static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
+    const auto corner_image = [&](Index f, int k) {
+        return k == 0 ? Complex(0) : k == 1 ? along[3 * f] : -along[3 * f + 2];
+    };
+
+    // Per face: split and triangulate (each face writes its own slot).
+    std::vector<std::vector<Triangle>> face_triangles(nf);
+    std::vector<std::vector<std::pair<Index, Complex>>> face_positions(nf);
+    std::vector<Index> skipped(nf, 0);
+    par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
+        std::vector<Complex> pos;
+        for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
+            Polygon poly;
+            std::vector<std::pair<Index, Complex>> local;  // point id -> chart position
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k;
+                poly.points.push_back(mesh.F(f, k));
+                poly.edge.push_back(-1);
+                local.emplace_back(mesh.F(f, k), corner_image(f, k));
+                const auto& list = edge_points[mesh.halfedge_edge[h]];
+                const bool forward = mesh.edge_sign(h) > 0;
+                for (std::size_t q = 0; q < list.size(); ++q) {
+                    const auto& [t_edge, id] = list[forward ? q : list.size() - 1 - q];
+                    const double t = forward ? t_edge : 1 - t_edge;
+                    poly.points.push_back(id);
+                    poly.edge.push_back(-1);
+                    local.emplace_back(id, corner_image(f, k) + t * along[h]);
+                }
+            }
+            auto& segs = face_segments[f];
+            if (segs.empty()) {
+                face_triangles[f].push_back({{mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)}, {-1, -1, -1}});
+                continue;
+            }
+            for (const FaceSegment& s : segs)
+                for (Index id : s.inner) {
+                    const auto& [face, b] = point_in_face[id - first_inner];
+                    (void)face;
+                    local.emplace_back(id, b[1] * corner_image(f, 1) + b[2] * corner_image(f, 2));
+                }
+            for (const FaceSegment& s : segs)
+                if (s.collision_tail) {
+                    const auto& b = point_in_face[s.to - first_inner].second;
+                    local.emplace_back(s.to, b[1] * corner_image(f, 1) + b[2] * corner_image(f, 2));
+                }
+            // Through-going segments first, then curves stopped here, latest stop first: a
+            // curve's blocker is always split in before it.
+            std::stable_sort(segs.begin(), segs.end(), [](const FaceSegment& a, const FaceSegment& b) {
+                if (a.collision_tail != b.collision_tail) return !a.collision_tail;
+                return a.collision_tail && a.stop_length > b.stop_length;
+            });
+            std::vector<Polygon> polys{poly};
+            for (const FaceSegment& s : segs)
+                if (!split(polys, s)) ++skipped[f];
+            // Local positions in a dense scratch indexed by slot.
+            std::sort(local.begin(), local.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+            local.erase(std::unique(local.begin(), local.end(),
+                                    [](const auto& a, const auto& b) { return a.first == b.first; }),
+                        local.end());
+            pos.assign(local.size(), Complex(0));
+            std::vector<Polygon> renumbered = polys;
+            const auto slot = [&](Index id) {
+                return static_cast<Index>(std::lower_bound(local.begin(), local.end(), id,
+                                                           [](const auto& a, Index x) { return a.first < x; }) -
+                                          local.begin());
+            };
+            for (std::size_t q = 0; q < local.size(); ++q) pos[q] = local[q].second;
+            for (Polygon& p : renumbered)
+                for (Index& id : p.points) id = slot(id);
+            std::vector<Triangle> tris;
+            for (const Polygon& p : renumbered) triangulate(p, pos, tris);
+            for (Triangle& t : tris)
+                for (Index& v : t.v) v = local[v].first;
+            face_triangles[f] = std::move(tris);
+            face_positions[f] = std::move(local);
+        }
+    });
+
+    // Assemble: positions, triangles, the form on the new halfedges.
+    CutMesh out;
+    const Index n_points = next_id;
+    PointMatrix V(n_points, 3);
+    V.topRows(nv) = mesh.V;
+    out.original_vertex.assign(n_points, -1);
+    for (Index v = 0; v < nv; ++v) out.original_vertex[v] = v;
+    for (std::size_t q = 0; q < point_on_edge.size(); ++q) {
+        const auto& [e, t] = point_on_edge[q];
+        V.row(nv + static_cast<Index>(q)) = (1 - t) * mesh.V.row(mesh.E(e, 0)) + t * mesh.V.row(mesh.E(e, 1));
+    }
+    for (std::size_t q = 0; q < point_in_face.size(); ++q) {
+        const auto& [f, b] = point_in_face[q];
+        Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+        for (int k = 0; k < 3; ++k) x += b[k] * mesh.V.row(mesh.F(f, k));
+        V.row(first_inner + static_cast<Index>(q)) = x;
+    }
+    Index n_tri = 0;
+    for (const auto& t : face_triangles) n_tri += static_cast<Index>(t.size());
+    TriangleMatrix F(n_tri, 3);
+    std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
+    std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));
+    out.original_face.resize(n_tri);
+    Index g = 0;
+    for (Index f = 0; f < nf; ++f) {
+        const auto& local = face_positions[f];
+        const auto position = [&](Index id) {
+            if (local.empty()) {
+                for (int k = 0; k < 3; ++k)
+                    if (mesh.F(f, k) == id) return corner_image(f, k);
+            }
+            return std::lower_bound(local.begin(), local.end(), id,
+                                    [](const auto& a, Index x) { return a.first < x; })->second;
+        };
+        for (const Triangle& t : face_triangles[f]) {
+            out.original_face[g] = f;
+            for (int k = 0; k < 3; ++k) {
+                F(g, k) = t.v[k];
+                along_new[3 * g + k] = position(t.v[(k + 1) % 3]) - position(t.v[k]);
+                halfedge_cut[3 * g + k] = t.cut[k];
+            }
+            ++g;
+        }
+    }
+    for (Index s : skipped) out.skipped_segments += s;
+    // Drop unused points (crossings merged away never happen, but stay safe).
+    out.mesh = make_mesh_view(std::move(V), std::move(F));
+    out.tau.resize(out.mesh.n_edges());
+    out.edge_trajectory.assign(out.mesh.n_edges(), -1);
+    for (Index h = 0; h < out.mesh.n_halfedges(); ++h) {
+        const Index e = out.mesh.halfedge_edge[h];
+        if (out.mesh.edge_halfedge[e] == h) out.tau(e) = along_new[h];
+        if (halfedge_cut[h] >= 0) out.edge_trajectory[e] = halfedge_cut[h];
+    }
+    return out;
+}
+
+}  // namespace holoflow::kernels

@@ -1,0 +1,310 @@
+#include "holoflow/kernels/trajectories.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <tuple>
+
+#include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/parallel.h"
+
+namespace holoflow::kernels {
+namespace {
+
+using Complex = std::complex<double>;
+constexpr double kLevelTol = 1e-9;        // a vertex this close to the level (relative) is on it
+constexpr double kFirstRound = 1.0 / 32;  // first motorcycle round, in sqrt(image area)
+
+// Per-trace tracing state between rounds.
+struct Walker {
+    Index in = kNoHalfedge;  // halfedge of the current face we entered through
+    double t_in = 0;         // entry point on `in`
+    double d_tail = 0, d_head = 0;  // level offsets at in's tail and head
+    bool done = false;
+    Index segments_before_round = 0;
+};
+
+class Tracer {
+ public:
+    Tracer(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const TraceStart> starts,
+           const TraceOptions& options)
+        : mesh_(mesh), along_(mesh.n_halfedges()), zero_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0) {
+        double area = 0;
+        for (Index h = 0; h < mesh.n_halfedges(); ++h) {
+            along_[h] = static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
+            if (mesh.twin[h] == kNoHalfedge) boundary_[mesh.tail(h)] = boundary_[mesh.head(h)] = 1;
+        }
+        for (Index f = 0; f < mesh.n_faces(); ++f) {
+            const Complex a = along_[3 * f], b = -along_[3 * f + 2];
+            area += std::abs(a.real() * b.imag() - a.imag() * b.real()) / 2;
+        }
+        for (const TraceStart& s : starts) zero_[s.vertex] = 1;
+        unit_ = std::sqrt(area);
+        cap_ = options.length_cap * unit_;
+        max_crossings_ = 8 * static_cast<std::size_t>(mesh.n_faces()) + 64;
+    }
+
+    double unit() const { return unit_; }
+    double cap() const { return cap_; }
+
+    double level(Complex z, TrajectoryFamily family) const {
+        return family == TrajectoryFamily::Vertical ? z.real() : z.imag();
+    }
+
+    // Every direction leaving zero vertex v at its level, as started trajectories.
+    void start(Index v, TrajectoryFamily family, std::vector<Trajectory>& out, std::vector<Walker>& walkers) const {
+        Index h = mesh_.vertex_halfedge[v];
+        if (h == kNoHalfedge) return;
+        const Index first = h;
+        do {
+            const Index across = MeshView::next(h);
+            const double db = level(along_[h], family), dc = -level(along_[MeshView::prev(h)], family);
+            const double tol = kLevelTol * face_scale(MeshView::face(h));
+            const bool along_boundary = (boundary_[mesh_.head(h)] && std::abs(db) <= tol) ||
+                                        (boundary_[mesh_.head(across)] && std::abs(dc) <= tol);
+            if ((db >= 0) != (dc >= 0) && !along_boundary) {
+                Trajectory tr;
+                tr.start_vertex = v;
+                tr.first_face = MeshView::face(h);
+                tr.family = family;
+                const double t = db / (db - dc);
+                tr.length = std::abs(level(along_[h] + t * along_[across], other(family)));
+                tr.crossings.push_back({across, t, tr.length});
+                Walker w;
+                if (mesh_.twin[across] == kNoHalfedge) {
+                    tr.end = Trajectory::End::Boundary;
+                    w.done = true;
+                } else {
+                    w.in = mesh_.twin[across];
+                    w.t_in = 1 - t;
+                    w.d_tail = dc;
+                    w.d_head = db;
+                }
+                out.push_back(std::move(tr));
+                walkers.push_back(w);
+            }
+            h = mesh_.rotate(h);
+        } while (h != kNoHalfedge && h != first);
+    }
+
+    // Advances one trajectory until its length reaches `until` or it ends.
+    void advance(Trajectory& tr, Walker& w, double until) const {
+        const TrajectoryFamily fam = tr.family;
+        while (!w.done && tr.length < until) {
+            const Index in = w.in, f = MeshView::face(in);
+            const Index a = mesh_.tail(in), b = mesh_.head(in), c = mesh_.head(MeshView::next(in));
+            const double da = w.d_tail, db = w.d_head, dc = db + level(along_[MeshView::next(in)], fam);
+            const double tol = kLevelTol * face_scale(f);
+            // A zero or boundary vertex on the level ends the curve there.
+            for (const auto& [v, d] : {std::pair{c, dc}, std::pair{a, da}, std::pair{b, db}}) {
+                if (std::abs(d) > tol || !(zero_[v] || boundary_[v])) continue;
+                tr.end = zero_[v] ? Trajectory::End::Zero : Trajectory::End::Boundary;
+                tr.end_vertex = v;
+                const Complex entry = w.t_in * along_[in];
+                const Complex target = v == a ? Complex(0) : v == b ? along_[in] : along_[in] + along_[MeshView::next(in)];
+                tr.length += std::abs(level(target - entry, other(fam)));
+                w.done = true;
+                return;
+            }
+            Index exit;
+            double dt, dh;
+            if ((dc >= 0) == (da >= 0)) exit = MeshView::next(in), dt = db, dh = dc;
+            else exit = MeshView::prev(in), dt = dc, dh = da;
+            const double t = dt / (dt - dh);
+            const Complex entry = w.t_in * along_[in];
+            const Complex exit_base = exit == MeshView::next(in) ? along_[in] : along_[in] + along_[MeshView::next(in)];
+            const Complex exit_point = exit_base + t * along_[exit];
+            tr.length += std::abs(level(exit_point - entry, other(fam)));
+            tr.crossings.push_back({exit, t, tr.length});
+            if (mesh_.twin[exit] == kNoHalfedge) {
+                tr.end = Trajectory::End::Boundary;
+                w.done = true;
+            } else if (tr.length > cap_ || tr.crossings.size() > max_crossings_) {
+                tr.end = Trajectory::End::LengthCap;
+                w.done = true;
+            } else {
+                w.in = mesh_.twin[exit];
+                w.t_in = 1 - t;
+                w.d_tail = dh;
+                w.d_head = dt;
+            }
+        }
+    }
+
+    // Image of a point of face f in its chart (corner 0 at 0).
+    Complex corner_image(Index f, int k) const {
+        return k == 0 ? Complex(0) : k == 1 ? along_[3 * f] : -along_[3 * f + 2];
+    }
+    Complex crossing_image(Index f, const EdgeCrossing& c) const {
+        // c.halfedge lies in face f, or is the twin of one of f's halfedges.
+        Index h = c.halfedge;
+        double t = c.t;
+        if (MeshView::face(h) != f) h = mesh_.twin[h], t = 1 - t;
+        return corner_image(f, h % 3) + t * along_[h];
+    }
+
+    static TrajectoryFamily other(TrajectoryFamily f) {
+        return f == TrajectoryFamily::Vertical ? TrajectoryFamily::Horizontal : TrajectoryFamily::Vertical;
+    }
+
+ private:
+    double face_scale(Index f) const {
+        return std::max({std::abs(along_[3 * f]), std::abs(along_[3 * f + 1]), std::abs(along_[3 * f + 2])});
+    }
+
+    const MeshView& mesh_;
+    std::vector<Complex> along_;
+    std::vector<char> zero_, boundary_;
+    double unit_ = 0, cap_ = 0;
+    std::size_t max_crossings_ = 0;
+};
+
+// One segment of a trajectory inside a face, in that face's chart, with arrival lengths.
+struct Segment {
+    Index trajectory, index, face;
+    Complex from, to;
+    double length_from, length_to;
+    bool from_vertex, to_vertex;  // starts at its zero / ends at a vertex
+};
+
+struct Event {
+    double late, early;
+    Index stopped, blocker, stopped_segment, blocker_segment, face;
+    Complex point;
+    bool operator<(const Event& o) const {
+        return std::tie(late, early, stopped, blocker, face) < std::tie(o.late, o.early, o.stopped, o.blocker, o.face);
+    }
+};
+
+}  // namespace
+
+Index Trajectory::segment_face(const MeshView& mesh, Index j) const {
+    if (j < static_cast<Index>(crossings.size())) return MeshView::face(crossings[j].halfedge);
+    return crossings.empty() ? first_face : MeshView::face(mesh.twin[crossings.back().halfedge]);
+}
+
+std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                           std::span<const TraceStart> starts,
+                                           std::span<const TrajectoryFamily> families,
+                                           const TraceOptions& options) {
+    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
+    for (const TraceStart& s : starts)
+        HOLOFLOW_REQUIRE(s.vertex >= 0 && s.vertex < mesh.n_vertices(), "start vertex out of range");
+    const Tracer tracer(mesh, tau, starts, options);
+    std::vector<Trajectory> out;
+    std::vector<Walker> walkers;
+    for (const TraceStart& s : starts)
+        for (TrajectoryFamily fam : families) tracer.start(s.vertex, fam, out, walkers);
+    const Index n = static_cast<Index>(out.size());
+    if (!(tracer.unit() > 0)) return out;
+
+    if (!options.motorcycle) {
+        par::for_each_index(out.size(), true, [&](std::size_t i) { tracer.advance(out[i], walkers[i], tracer.cap() * 2); });
+        return out;
+    }
+
+    // Motorcycle rounds: everything advances to length T, then collisions up to T are decided in
+    // order of the later arrival; the others wait for a later round.
+    std::vector<std::vector<Segment>> bucket(mesh.n_faces());
+    std::vector<Event> pending;
+    std::vector<double> stop(n, std::numeric_limits<double>::infinity());
+    std::vector<Index> next_segment(n, 0);
+    const auto corner_of = [&](Index f, Index v) {
+        for (int k = 0; k < 3; ++k)
+            if (mesh.F(f, k) == v) return k;
+        return 0;
+    };
+    const auto segment = [&](Index i, Index j) {
+        const Trajectory& tr = out[i];
+        const Index f = tr.segment_face(mesh, j);
+        Segment s{i, j, f, {}, {}, 0, 0, j == 0, false};
+        s.from = j == 0 ? tracer.corner_image(f, corner_of(f, tr.start_vertex))
+                        : tracer.crossing_image(f, tr.crossings[j - 1]);
+        s.length_from = j == 0 ? 0 : tr.crossings[j - 1].length;
+        if (j < static_cast<Index>(tr.crossings.size())) {
+            s.to = tracer.crossing_image(f, tr.crossings[j]);
+            s.length_to = tr.crossings[j].length;
+        } else {
+            s.to = tracer.corner_image(f, corner_of(f, tr.end_vertex));
+            s.length_to = tr.length;
+            s.to_vertex = true;
+        }
+        return s;
+    };
+    const auto intersect = [&](const Segment& p, const Segment& q, std::vector<Event>& events) {
+        const Segment& vert = out[p.trajectory].family == TrajectoryFamily::Vertical ? p : q;
+        const Segment& horz = &vert == &p ? q : p;
+        const double eps = 1e-12 * (std::abs(vert.to - vert.from) + std::abs(horz.to - horz.from) +
+                                    std::abs(vert.from) + std::abs(horz.from));
+        const double u = vert.from.real(), v = horz.from.imag();
+        if (v < std::min(vert.from.imag(), vert.to.imag()) - eps || v > std::max(vert.from.imag(), vert.to.imag()) + eps ||
+            u < std::min(horz.from.real(), horz.to.real()) - eps || u > std::max(horz.from.real(), horz.to.real()) + eps)
+            return;
+        const Complex point(u, v);
+        // Meeting at a zero (a shared start, or an end at a vertex) is not a collision.
+        for (const Segment* s : {&vert, &horz})
+            if ((s->from_vertex && std::abs(point - s->from) <= eps) || (s->to_vertex && std::abs(point - s->to) <= eps))
+                return;
+        const double at_vert = vert.length_from + std::abs(v - vert.from.imag());
+        const double at_horz = horz.length_from + std::abs(u - horz.from.real());
+        const bool vert_later = at_vert > at_horz || (at_vert == at_horz && vert.trajectory > horz.trajectory);
+        const Segment& late = vert_later ? vert : horz;
+        const Segment& early = vert_later ? horz : vert;
+        events.push_back({std::max(at_vert, at_horz), std::min(at_vert, at_horz), late.trajectory, early.trajectory,
+                          late.index, early.index, late.face, point});
+    };
+    const auto decide = [&](double until) {
+        std::sort(pending.begin(), pending.end());
+        std::vector<Event> later;
+        for (const Event& e : pending) {
+            if (e.late > until) {
+                later.push_back(e);
+                continue;
+            }
+            if (!(stop[e.stopped] > e.late) || !(stop[e.blocker] > e.early)) continue;
+            Trajectory& tr = out[e.stopped];
+            if (e.late > tr.length) continue;  // ended (zero, boundary) before getting there
+            stop[e.stopped] = e.late;
+            tr.crossings.resize(e.stopped_segment);
+            tr.end = Trajectory::End::Collision;
+            tr.end_vertex = -1;
+            tr.blocker = e.blocker;
+            tr.blocker_segment = e.blocker_segment;
+            tr.blocker_length = e.early;
+            tr.length = e.late;
+            const Complex c1 = tracer.corner_image(e.face, 1), c2 = tracer.corner_image(e.face, 2);
+            const double area = c1.real() * c2.imag() - c1.imag() * c2.real();
+            const double b1 = (e.point.real() * c2.imag() - e.point.imag() * c2.real()) / area;
+            const double b2 = (c1.real() * e.point.imag() - c1.imag() * e.point.real()) / area;
+            tr.end_barycentric = {1 - b1 - b2, b1, b2};
+            walkers[e.stopped].done = true;
+        }
+        pending.swap(later);
+    };
+    for (double T = kFirstRound * tracer.unit();; T *= 2) {
+        const double until = std::min(T, tracer.cap() * 2);
+        par::for_each_index(out.size(), true, [&](std::size_t i) {
+            if (stop[i] == std::numeric_limits<double>::infinity()) tracer.advance(out[i], walkers[i], until);
+        });
+        for (Index i = 0; i < n; ++i) {
+            if (stop[i] < std::numeric_limits<double>::infinity()) continue;
+            const Index segments = out[i].n_segments();
+            for (Index j = next_segment[i]; j < segments; ++j) {
+                const Segment s = segment(i, j);
+                for (const Segment& q : bucket[s.face])
+                    if (out[q.trajectory].family != out[i].family) intersect(s, q, pending);
+                bucket[s.face].push_back(s);
+            }
+            next_segment[i] = segments;
+        }
+        bool all_done = true;
+        for (Index i = 0; i < n; ++i) all_done = all_done && walkers[i].done;
+        const bool last = all_done || until >= tracer.cap() * 2;
+        decide(last ? std::numeric_limits<double>::infinity() : until);
+        if (last) break;
+    }
+    return out;
+}
+
+}  // namespace holoflow::kernels
