@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
@@ -87,15 +88,22 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
             (inner ? interior_halfedges : border_halfedges)[id] += 1;
         }
     }
-    // Vertices per patch, counting a vertex once per patch it touches.
-    std::vector<std::pair<Index, Index>> patch_vertex;
-    patch_vertex.reserve(3 * static_cast<std::size_t>(nf));
-    for (Index f = 0; f < nf; ++f)
-        for (int k = 0; k < 3; ++k) patch_vertex.emplace_back(p.face_patch[f], mesh.F(f, k));
-    std::sort(patch_vertex.begin(), patch_vertex.end());
-    patch_vertex.erase(std::unique(patch_vertex.begin(), patch_vertex.end()), patch_vertex.end());
+    // Vertices of each patch cut open: corners around a vertex joined across non-border edges.
+    std::vector<Index> wedge(mesh.n_halfedges());
+    std::iota(wedge.begin(), wedge.end(), 0);
+    const auto find = [&](Index x) {
+        while (wedge[x] != x) x = wedge[x] = wedge[wedge[x]];
+        return x;
+    };
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) {
+        const Index p_edge = MeshView::prev(h), t = mesh.twin[p_edge];
+        if (t == kNoHalfedge || border[mesh.halfedge_edge[p_edge]]) continue;
+        const Index a = find(h), b = find(t);  // t leaves tail(h): the next corner around it
+        if (a != b) wedge[std::max(a, b)] = std::min(a, b);
+    }
     std::vector<Index> vertices(np, 0);
-    for (const auto& [id, v] : patch_vertex) ++vertices[id];
+    for (Index h = 0; h < mesh.n_halfedges(); ++h)
+        if (find(h) == h) ++vertices[p.face_patch[MeshView::face(h)]];
 
     // Border loops: follow border halfedges of the patch around its faces.
     std::vector<char> walked(mesh.n_halfedges(), 0);

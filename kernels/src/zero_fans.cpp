@@ -12,7 +12,7 @@ namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr int kMaxGrowth = 3;
+constexpr int kMaxGrowth = 4;
 constexpr double kOrientationTol = 1e-12;  // relative to the squared image edge lengths
 
 Complex along(const MeshView& mesh, const Eigen::VectorXcd& tau, Index h) {
@@ -43,6 +43,12 @@ struct Fan {
     Complex centre_image;
     std::vector<Complex> chain_tail_image;  // image of each chain halfedge's tail, then its head
     Complex last_head_image;
+};
+
+struct Candidate {
+    Index vertex;  // an existing vertex kept as the centre, or -1 for a new point
+    Complex image;
+    Eigen::RowVector3d position;
 };
 
 class FanBuilder {
@@ -190,10 +196,11 @@ class FanBuilder {
         }
         if (fan.chain.size() != inner.size()) return false;  // several loops
 
-        // Centre candidates.
-        std::vector<std::pair<Index, Complex>> candidates;  // (existing vertex or -1, image)
+        // Centre candidates: the zero's estimate first, then (a poor estimate, an artifact)
+        // the star's interior vertices and face centroids, whose images tile the star's image.
+        std::vector<Candidate> candidates;
         if (fan.open) {
-            // On the boundary: the region's boundary vertex nearest the zero's point.
+            // On the boundary: the region's boundary vertices, nearest the zero's point first.
             const Eigen::RowVector3d target = zero_point(region);
             std::vector<std::pair<double, Index>> order;
             for (Index h : outer) {
@@ -202,20 +209,28 @@ class FanBuilder {
                 order.emplace_back((mesh_.V.row(v) - target).squaredNorm(), v);
             }
             std::sort(order.begin(), order.end());
-            for (const auto& [d, v] : order) candidates.emplace_back(v, image_[v]);
-        } else if (region.face >= 0 && stamp_[mesh_.F(region.face, 0)] == generation_) {
-            candidates.emplace_back(-1, image_[mesh_.F(region.face, 0)] + region.image_offset);
-        } else if (region.vertex >= 0) {
-            candidates.emplace_back(region.vertex, image_[region.vertex]);
+            for (const auto& [d, v] : order) candidates.push_back({v, image_[v], mesh_.V.row(v)});
+        } else {
+            if (region.face >= 0 && stamp_[mesh_.F(region.face, 0)] == generation_)
+                candidates.push_back({-1, image_[mesh_.F(region.face, 0)] + region.image_offset, zero_point(region)});
+            if (region.vertex >= 0) candidates.push_back({region.vertex, image_[region.vertex], mesh_.V.row(region.vertex)});
+            for (Index f : fan.region_faces) {
+                Complex p = 0;
+                Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+                for (int k = 0; k < 3; ++k) {
+                    const Index v = mesh_.F(f, k);
+                    p += image_[v] / 3.0;
+                    x += mesh_.V.row(v) / 3.0;
+                    if (!is_boundary_vertex_[v]) candidates.push_back({v, image_[v], mesh_.V.row(v)});
+                }
+                candidates.push_back({-1, p, x});
+            }
         }
-        if (!fan.open)  // artifacts, or a poor estimate: any interior vertex of the star
-            for (Index v : region.vertices)
-                if (stamp_[v] == generation_ && !is_boundary_vertex_[v]) candidates.emplace_back(v, image_[v]);
-        for (const auto& [v, p] : candidates) {
-            if (!fan_is_valid(region, fan, v, p)) continue;
-            fan.centre = v;
-            fan.centre_image = p;
-            fan.centre_position = v >= 0 ? Eigen::RowVector3d(mesh_.V.row(v)) : zero_point(region);
+        for (const Candidate& c : candidates) {
+            if (!fan_is_valid(region, fan, c)) continue;
+            fan.centre = c.vertex;
+            fan.centre_image = c.image;
+            fan.centre_position = c.position;
             for (Index h : fan.chain) fan.chain_tail_image.push_back(image_[mesh_.tail(h)]);
             fan.last_head_image = image_[mesh_.head(fan.chain.back())];
             return true;
@@ -223,11 +238,12 @@ class FanBuilder {
         return false;
     }
 
-    bool fan_is_valid(const ZeroRegion& region, const Fan& fan, Index centre, Complex p) const {
-        if (centre >= 0)
+    bool fan_is_valid(const ZeroRegion& region, const Fan& fan, const Candidate& c) const {
+        if (c.vertex >= 0)
             for (Index h : fan.chain)
-                if (mesh_.tail(h) == centre || mesh_.head(h) == centre) return false;
-        const Eigen::RowVector3d x0 = centre >= 0 ? Eigen::RowVector3d(mesh_.V.row(centre)) : zero_point(region);
+                if (mesh_.tail(h) == c.vertex || mesh_.head(h) == c.vertex) return false;
+        const Complex p = c.image;
+        const Eigen::RowVector3d& x0 = c.position;
         double turning = 0;
         for (Index h : fan.chain) {
             const Complex a = image_[mesh_.tail(h)] - p, b = image_[mesh_.head(h)] - p;
@@ -389,6 +405,12 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
             }
         }
     }
+    // Two fans whose stars touch along an edge: their chain halfedges pair up directly.
+    for (const Fan& fan : fans)
+        for (Index h : fan.chain) {
+            const Index t = mesh.twin[h];
+            if (t != kNoHalfedge && chain_owner[t] >= 0) twin[chain_owner[h]] = chain_owner[t];
+        }
     for (std::size_t r = 0; r < regions.size(); ++r)
         if (fan_of_region[r] >= 0) out.region_vertex[r] = centre_vertex[fan_of_region[r]];
 
