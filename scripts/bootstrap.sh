@@ -46,7 +46,7 @@ case "${1:-}" in
     configure_and_build
     mesh="${2:-$build/data/meshes/eight.off}"
     "$build/holoflow" info "$mesh"
-    "$build/holoflow" conformal "$mesh" -o "$build/demo/$(basename "${mesh%.*}")"
+    "$build/holoflow" segment "$mesh" -o "$build/demo/$(basename "${mesh%.*}")"
     ;;
   test)
     install_packages

@@ -1,0 +1,189 @@
+#include "holoflow/engine/segmentation_pipeline.h"
+
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Geometry>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "holoflow/kernels/shapes.h"
+#include "holoflow/kernels/subdivision.h"
+#include "support/test_support.h"
+
+namespace holoflow::engine {
+namespace {
+
+constexpr double kRectangleTol = 1e-9;  // borders are exact iso-lines up to rounding
+
+int total_order(const SegmentationResult& r) {
+    int sum = 0;
+    for (const kernels::Zero& z : r.zeros.zeros) sum += z.order;
+    return sum;
+}
+
+Index count_type(const SegmentationResult& r, kernels::PatchInfo::Type type) {
+    Index n = 0;
+    for (const auto& p : r.patches.info) n += p.type == type;
+    return n;
+}
+
+Index flipped(const SegmentationResult& r) {
+    Index n = 0;
+    for (const auto& p : r.patches.info) n += p.flipped_uv_triangles;
+    return n;
+}
+
+double rectangle_error(const SegmentationResult& r) {
+    double e = 0;
+    for (const auto& p : r.patches.info) e = std::max(e, p.rectangle_error);
+    return e;
+}
+
+Index unfinished(const SegmentationResult& r) {
+    Index n = 0;
+    for (const auto& t : r.trajectories) n += t.end == kernels::Trajectory::End::LengthCap;
+    return n;
+}
+
+// 3D position of each zero on the working surface.
+std::vector<Eigen::RowVector3d> zero_positions(const SegmentationResult& r) {
+    const MeshView& s = *r.conformal.surface;
+    std::vector<Eigen::RowVector3d> out;
+    for (const kernels::Zero& z : r.zeros.zeros) {
+        if (z.vertex >= 0) {
+            out.push_back(s.V.row(z.vertex));
+            continue;
+        }
+        Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+        for (int k = 0; k < 3; ++k) x += z.barycentric[k] * s.V.row(s.F(z.face, k));
+        out.push_back(x);
+    }
+    return out;
+}
+
+double mean_edge_length(const MeshView& m) {
+    double sum = 0;
+    for (Index e = 0; e < m.n_edges(); ++e) sum += (m.V.row(m.E(e, 0)) - m.V.row(m.E(e, 1))).norm();
+    return sum / m.n_edges();
+}
+
+TEST(Segmentation, CorpusZeroCountIsExactWithEveryTrajectoryFinished) {
+    for (const auto& [name, genus] : {std::pair{"eight", 2}, {"femur", 2}, {"elephant", 3}, {"helmet", 3},
+                                      {"anchor", 4}, {"couplingdown", 9}, {"turbine", 11}}) {
+        SCOPED_TRACE(name);
+        const SegmentationResult r = segment(*test::corpus_mesh(name));
+        EXPECT_EQ(r.zeros.total_index, 2 * genus - 2);
+        EXPECT_EQ(total_order(r), 2 * genus - 2);
+        EXPECT_EQ(unfinished(r), 0);
+        EXPECT_FALSE(r.patches.info.empty());
+    }
+}
+
+TEST(Segmentation, LayoutPatchesAreRectanglesOnWellShapedMeshes) {
+    // Closed (eight, elephant), open through the double cover (head: 3 boundaries, lion: 5).
+    for (const auto& [name, working_genus] : {std::pair{"eight", 2}, {"elephant", 3}, {"head", 2}, {"lion", 4}}) {
+        SCOPED_TRACE(name);
+        const SegmentationResult r = segment(*test::corpus_mesh(name));
+        EXPECT_EQ(r.conformal.basis.genus, working_genus);
+        EXPECT_EQ(r.zeros.total_order, 2 * working_genus - 2);
+        EXPECT_EQ(r.regular.failed_regions, 0);
+        EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+        EXPECT_EQ(flipped(r), 0);
+        EXPECT_EQ(unfinished(r), 0);
+        if (std::string(name) != "lion") {
+            EXPECT_EQ(r.cut.skipped_segments, 0);
+        }
+        if (std::string(name) == "eight" || std::string(name) == "elephant") {
+            EXPECT_EQ(r.zeros.artifact_clusters, 0);
+            EXPECT_LT(rectangle_error(r), kRectangleTol);
+        }
+    }
+}
+
+TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
+    for (const MeshView& torus : {shapes::torus(2, 1, 48, 24), *test::corpus_mesh("knot")}) {
+        const SegmentationResult r = segment(torus);
+        EXPECT_TRUE(r.zeros.zeros.empty());
+        EXPECT_TRUE(r.trajectories.empty());
+        ASSERT_EQ(r.patches.info.size(), 1u);
+        EXPECT_EQ(r.patches.info[0].type, kernels::PatchInfo::Type::Disk);  // the fundamental domain
+        EXPECT_EQ(flipped(r), 0);
+    }
+}
+
+TEST(Segmentation, GenusZeroIsSlicedAtItsTips) {
+    const SegmentationResult r = segment(*test::corpus_mesh("bull"));
+    EXPECT_GE(r.tips.size(), 2u);
+    EXPECT_EQ(r.conformal.basis.genus, static_cast<int>(r.tips.size()) - 1);
+    EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+    EXPECT_EQ(unfinished(r), 0);
+}
+
+TEST(Segmentation, SameResultForAnyThreadCount) {
+    const auto mesh = test::corpus_mesh("elephant");
+    const auto run = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        return segment(*mesh);
+    };
+    const SegmentationResult one = run(1), two = run(2);
+    ASSERT_EQ(one.trajectories.size(), two.trajectories.size());
+    for (std::size_t i = 0; i < one.trajectories.size(); ++i) {
+        EXPECT_EQ(one.trajectories[i].crossings.size(), two.trajectories[i].crossings.size());
+        EXPECT_EQ(one.trajectories[i].length, two.trajectories[i].length);
+    }
+    EXPECT_EQ(one.cut.mesh.F, two.cut.mesh.F);
+    EXPECT_EQ(one.patches.face_patch, two.patches.face_patch);
+    EXPECT_EQ(one.patches.corner_uv, two.patches.corner_uv);
+}
+
+TEST(Segmentation, RigidMotionAndScaleChangeNothing) {
+    const auto mesh = test::corpus_mesh("eight");
+    MeshView moved = *mesh;
+    const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    for (Index v = 0; v < moved.n_vertices(); ++v)
+        moved.V.row(v) = 3.5 * (R * mesh->V.row(v).transpose()).transpose() + Eigen::RowVector3d(1, -2, 5);
+    const SegmentationResult a = segment(*mesh), b = segment(moved);
+    EXPECT_EQ(a.zeros.zeros.size(), b.zeros.zeros.size());
+    EXPECT_EQ(a.trajectories.size(), b.trajectories.size());
+    EXPECT_EQ(a.patches.info.size(), b.patches.info.size());
+}
+
+TEST(Segmentation, MidpointSubdivisionKeepsZerosAndPatches) {
+    const auto coarse_mesh = test::corpus_mesh("eight");
+    const MeshView fine_mesh = kernels::subdivide_midpoint(*coarse_mesh);
+    const SegmentationResult coarse = segment(*coarse_mesh);
+    // The same cohomology basis on both meshes, so the generic form is the same form.
+    SegmentOptions same_form;
+    same_form.conformal.closed_forms =
+        kernels::subdivide_forms_midpoint(*coarse_mesh, fine_mesh, coarse.conformal.homology.closed_forms);
+    const SegmentationResult fine = segment(fine_mesh, same_form);
+    EXPECT_EQ(coarse.zeros.total_order, fine.zeros.total_order);
+    EXPECT_EQ(coarse.zeros.zeros.size(), fine.zeros.zeros.size());
+    EXPECT_EQ(coarse.patches.info.size(), fine.patches.info.size());
+    // Every coarse zero has a fine one within a few coarse edge lengths.
+    const double h = mean_edge_length(*coarse_mesh);
+    for (const auto& x : zero_positions(coarse)) {
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const auto& y : zero_positions(fine)) nearest = std::min(nearest, (x - y).norm());
+        EXPECT_LT(nearest, 2 * h);
+    }
+}
+
+TEST(Segmentation, VerticalModeOnOpenSurfacesEndsAtTheBoundary) {
+    const SegmentationResult r = [] {
+        SegmentOptions o;
+        o.mode = SegmentMode::Vertical;
+        return segment(*test::corpus_mesh("head"), o);
+    }();
+    EXPECT_EQ(unfinished(r), 0);
+    for (const auto& t : r.trajectories) {
+        EXPECT_EQ(t.family, kernels::TrajectoryFamily::Vertical);
+        EXPECT_NE(t.end, kernels::Trajectory::End::Collision);
+    }
+    EXPECT_EQ(flipped(r), 0);
+}
+
+}  // namespace
+}  // namespace holoflow::engine
