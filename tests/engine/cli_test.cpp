@@ -151,5 +151,45 @@ TEST(Cli, ConformalRefusesSphereAndUnwritableFolder) {
     EXPECT_EQ(unwritable.err.rfind("error: output_error: ", 0), 0u) << unwritable.err;
 }
 
+TEST(Cli, SegmentWritesItsFilesAndJson) {
+    test::TempDir dir;
+    const std::string out = (dir.path() / "eight").string();
+    const auto r = test::run_cli("segment '" + test::corpus("eight.off") + "' -o '" + out + "' --json");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto report = nlohmann::json::parse(r.out);
+    for (const char* key : {"genus", "working_genus", "zero_count", "zeros", "artifacts", "patches",
+                            "patch_types", "flipped_uv_triangles", "rectangle_error_max",
+                            "unfinished_trajectories", "timings_ms"})
+        EXPECT_TRUE(report.contains(key)) << key;
+    EXPECT_EQ(report["genus"], 2);
+    EXPECT_EQ(report["working_genus"], 2);
+    EXPECT_EQ(report["zero_count"], 2);
+    EXPECT_EQ(report["flipped_uv_triangles"], 0);
+    for (const char* file : {"segments.ply", "patches.obj", "trajectories.obj", "domains.svg", "complex.json",
+                             "segmentation.json"})
+        EXPECT_GT(std::filesystem::file_size(std::filesystem::path(out) / file), 0u) << file;
+    std::ifstream saved(std::filesystem::path(out) / "segmentation.json");
+    EXPECT_EQ(nlohmann::json::parse(saved)["patch_count"], report["patch_count"]);
+    std::ifstream complex_file(std::filesystem::path(out) / "complex.json");
+    const auto complex = nlohmann::json::parse(complex_file);
+    EXPECT_EQ(complex["faces"].size(), report["patch_count"].get<std::size_t>());
+    // Vertical mode on an open surface, and tips given by hand on a genus-0 mesh.
+    const auto vertical = test::run_cli("segment '" + test::corpus("head.off") + "' -o '" + out +
+                                        "-v' --mode vertical --json");
+    ASSERT_EQ(vertical.status, 0) << vertical.err;
+    EXPECT_EQ(nlohmann::json::parse(vertical.out)["mode"], "vertical");
+}
+
+TEST(Cli, SegmentRefusesBadOptions) {
+    test::TempDir dir;
+    const std::string out = (dir.path() / "x").string();
+    EXPECT_EQ(test::run_cli("segment '" + test::corpus("eight.off") + "' -o '" + out + "' --mode diagonal").status, 2);
+    const auto tips = test::run_cli("segment '" + test::corpus("eight.off") + "' -o '" + out + "' --tips 1,2");
+    EXPECT_EQ(tips.status, 3);  // tips only for genus 0
+    EXPECT_NE(tips.err.find("tips"), std::string::npos);
+    const auto bad_tip = test::run_cli("segment '" + test::corpus("bull.off") + "' -o '" + out + "' --tips 1,999999999");
+    EXPECT_EQ(bad_tip.status, 3) << bad_tip.err;
+}
+
 }  // namespace
 }  // namespace holoflow
