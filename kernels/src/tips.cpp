@@ -287,17 +287,21 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
     const double threshold = options.prominence * diameter;
     const Higher higher{value};
 
-    // Candidates: maxima prominent enough, most prominent first.
+    // Candidates: interior maxima prominent enough, most prominent first.
+    const std::vector<char> on_boundary = boundary_vertex_flags(mesh);
     const std::vector<double> prominence = peak_prominence(g, value);
     std::vector<Index> candidates;
     for (Index v = 0; v < g.n_vertices(); ++v)
-        if (prominence[v] >= 0 && prominence[v] >= threshold) candidates.push_back(v);
+        if (prominence[v] >= 0 && prominence[v] >= threshold && !on_boundary[v])
+            candidates.push_back(v);
     std::sort(candidates.begin(), candidates.end(), [&](Index u, Index v) {
         return prominence[u] > prominence[v] || (prominence[u] == prominence[v] && u < v);
     });
 
-    // Isolation: Dijkstra from the candidate until the first higher vertex; it must lie at
-    // least `threshold` away. Accepted tips run to that vertex (at most max_tips such runs).
+    // Isolation, reported: Dijkstra from the tip until the first higher vertex. It needs no
+    // test: both measures are 1-Lipschitz along edge paths (each distance field obeys the
+    // triangle inequality), and any path to higher ground passes a vertex `prominence` below
+    // the tip, so isolation >= prominence >= threshold.
     Dijkstra dijkstra(g);
     for (Index c : candidates) {
         if (static_cast<int>(out.tips.size()) >= options.max_tips) break;
@@ -307,7 +311,6 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
             isolation = d;
             return false;
         });
-        if (isolation < threshold) continue;
         out.tips.push_back(c);
         out.prominence.push_back(diameter > 0 ? prominence[c] / diameter : 0.0);
         out.isolation.push_back(diameter > 0 ? std::min(isolation, diameter) / diameter : 0.0);
@@ -315,7 +318,6 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
 
     // Too few (a round blob): the highest vertex, then farthest points from the tips so far
     // and from the boundary.
-    const std::vector<char> on_boundary = boundary_vertex_flags(mesh);
     if (out.tips.empty()) {
         const Index top = argmax(value);
         if (!on_boundary[top]) {
@@ -347,99 +349,94 @@ std::vector<Index> find_tips(const MeshView& mesh, const TipOptions& options) {
 
 namespace {
 
-// Outcome of growing one hole in isolation (other holes ignored); `piece` is the size of the
+// Outcome of cleaning one hole in isolation (other holes ignored); `piece` is the size of the
 // kept piece the hole would cut off when CutsMesh.
-enum class HoleStatus { Ok, ReachesBoundary, CoversMesh, CutsMesh };
+enum class HoleStatus { Ok, ReachesBoundary, CoversMesh, CutsMesh, NotADisk };
 struct HoleResult {
     HoleStatus status = HoleStatus::Ok;
     Index piece = 0;
 };
 
-// Grows `in_hole` (faces marked 1, listed in `faces`) until it is a disk with a simple border,
-// see slice_tips. `mark` is scratch of #F zeros, returned as zeros.
+// Makes the edge-connected face set `in_hole` (listed in `faces`) a closed disk, or says why
+// not. Pockets, the kept components other than the largest, join the hole when each is no
+// larger than it. That is the whole clean-up: where the hole's border touches itself at a vertex
+// u (two kept arcs around u), a loop through the hole and u either separates the surface, and
+// then the two arcs lie in different kept components, one of them a pocket, or it does not
+// (it runs around a handle), and then splitting u leaves a connected surface with boundary, so
+// chi(hole) <= 1 - 1 = 0 and the disk test below fails. Growing the hole at u fixes neither
+// case. So a connected hole with chi = 1 is a disk with a simple border, and the kept faces
+// around each of its border vertices form one arc. `mark` is scratch of #F zeros, kept zero.
 HoleResult clean_hole(const MeshView& mesh, const std::vector<char>& on_boundary,
                       std::vector<char>& in_hole, std::vector<Index>& faces,
                       std::vector<Index>& mark) {
     const Index n_f = mesh.n_faces();
-    auto add = [&](Index f) {
-        if (!in_hole[f]) {
-            in_hole[f] = 1;
-            faces.push_back(f);
-        }
-    };
-    std::vector<Index> verts, stack;
-    for (;;) {
-        // Vertices of the hole; a boundary vertex among them means the hole meets the border.
-        verts.clear();
-        for (Index f : faces)
-            for (int k = 0; k < 3; ++k) verts.push_back(mesh.F(f, k));
-        std::sort(verts.begin(), verts.end());
-        verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-        for (Index v : verts)
-            if (on_boundary[v]) return {HoleStatus::ReachesBoundary, 0};
-
-        // Pinches: around an interior vertex the kept faces must form one arc (or none).
-        bool grown = false;
-        for (Index v : verts) {
-            const Index h0 = mesh.vertex_halfedge[v];
-            int arcs = 0;
-            Index h = h0;
-            do {
-                const Index next = mesh.rotate(h);
-                if (in_hole[MeshView::face(h)] && !in_hole[MeshView::face(next)]) ++arcs;
-                h = next;
-            } while (h != h0);
-            if (arcs < 2) continue;
-            h = h0;
-            do {
-                add(MeshView::face(h));
-                h = mesh.rotate(h);
-            } while (h != h0);
-            grown = true;
-        }
-        if (grown) continue;
-
-        // Pockets: kept faces cut off from the rest by this hole. Label the kept components by
-        // flood fill; all but the largest (ties: smallest face) join the hole if each is no
-        // larger than the hole, otherwise the hole cuts the mesh in two.
-        std::vector<Index> sizes;
-        for (Index seed = 0; seed < n_f; ++seed) {
-            if (in_hole[seed] || mark[seed]) continue;
-            const Index label = static_cast<Index>(sizes.size()) + 1;
-            Index size = 0;
-            mark[seed] = label;
-            stack.push_back(seed);
-            while (!stack.empty()) {
-                const Index f = stack.back();
-                stack.pop_back();
-                ++size;
-                for (int k = 0; k < 3; ++k) {
-                    const Index t = mesh.twin[3 * f + k];
-                    if (t == kNoHalfedge) continue;
-                    const Index g = MeshView::face(t);
-                    if (in_hole[g] || mark[g]) continue;
-                    mark[g] = label;
-                    stack.push_back(g);
-                }
+    // Kept components by flood fill across edges; label c + 1 for component c.
+    std::vector<Index> sizes, stack;
+    for (Index seed = 0; seed < n_f; ++seed) {
+        if (in_hole[seed] || mark[seed]) continue;
+        const Index label = static_cast<Index>(sizes.size()) + 1;
+        Index size = 0;
+        mark[seed] = label;
+        stack.push_back(seed);
+        while (!stack.empty()) {
+            const Index f = stack.back();
+            stack.pop_back();
+            ++size;
+            for (int k = 0; k < 3; ++k) {
+                const Index t = mesh.twin[3 * f + k];
+                if (t == kNoHalfedge) continue;
+                const Index g = MeshView::face(t);
+                if (in_hole[g] || mark[g]) continue;
+                mark[g] = label;
+                stack.push_back(g);
             }
-            sizes.push_back(size);
         }
-        if (sizes.empty()) return {HoleStatus::CoversMesh, 0};
+        sizes.push_back(size);
+    }
+    HoleResult result;
+    if (sizes.empty()) {
+        result.status = HoleStatus::CoversMesh;
+    } else {
+        // The largest component stays (the first of equal ones: deterministic).
         const Index main =
             static_cast<Index>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin()) + 1;
         const Index hole_size = static_cast<Index>(faces.size());
         for (std::size_t c = 0; c < sizes.size(); ++c)
             if (static_cast<Index>(c) + 1 != main && sizes[c] > hole_size) {
-                std::fill(mark.begin(), mark.end(), 0);
-                return {HoleStatus::CutsMesh, sizes[c]};
+                result = {HoleStatus::CutsMesh, sizes[c]};
+                break;
             }
-        const bool pockets = sizes.size() > 1;
         for (Index f = 0; f < n_f; ++f) {
-            if (mark[f] != 0 && mark[f] != main) add(f);
+            if (result.status == HoleStatus::Ok && mark[f] != 0 && mark[f] != main) {
+                in_hole[f] = 1;
+                faces.push_back(f);
+            }
             mark[f] = 0;
         }
-        if (!pockets) return {};
     }
+    if (result.status != HoleStatus::Ok) return result;
+
+    // A hole with a vertex on the input boundary would merge with that boundary loop.
+    std::vector<Index> verts;
+    Index inner_halfedges = 0, border_halfedges = 0;
+    for (Index f : faces)
+        for (int k = 0; k < 3; ++k) {
+            verts.push_back(mesh.F(f, k));
+            const Index t = mesh.twin[3 * f + k];
+            if (t != kNoHalfedge && in_hole[MeshView::face(t)])
+                ++inner_halfedges;
+            else
+                ++border_halfedges;
+        }
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    for (Index v : verts)
+        if (on_boundary[v]) return {HoleStatus::ReachesBoundary, 0};
+    // Euler characteristic V - E + F of the closed hole.
+    const Index chi = static_cast<Index>(verts.size()) - (inner_halfedges / 2 + border_halfedges) +
+                      static_cast<Index>(faces.size());
+    if (chi != 1) result.status = HoleStatus::NotADisk;
+    return result;
 }
 
 }  // namespace
@@ -513,38 +510,22 @@ SlicedMesh slice_tips(const MeshView& mesh, std::span<const Index> tips, double 
         HOLOFLOW_REQUIRE(hole.status != HoleStatus::CutsMesh,
                          where + " cuts the mesh into pieces (" + std::to_string(hole.piece) +
                              " faces would be disconnected): use a smaller hole_radius");
+        HOLOFLOW_REQUIRE(hole.status != HoleStatus::NotADisk,
+                         where + " is not a disk (it wraps a handle): use a smaller hole_radius");
+        // Holes meeting the boundary or an earlier hole are dropped; the others are
+        // vertex-disjoint disks, so the remaining faces stay a connected manifold.
         bool keep = hole.status == HoleStatus::Ok;
+        for (Index f : faces)
+            for (int k = 0; k < 3 && keep; ++k)
+                if (hole_vertex[mesh.F(f, k)]) keep = false;
         if (keep) {
-            // A disk: Euler characteristic V - E + F of the closed hole is 1 (one border loop
-            // and no handle inside; with one loop, a handle would show as chi <= -1).
-            std::vector<Index> verts;
-            Index interior_halfedges = 0, border_halfedges = 0;
-            for (Index f : faces)
-                for (int k = 0; k < 3; ++k) {
-                    verts.push_back(mesh.F(f, k));
-                    const Index t = mesh.twin[3 * f + k];
-                    if (t != kNoHalfedge && in_hole[MeshView::face(t)])
-                        ++interior_halfedges;
-                    else
-                        ++border_halfedges;
-                }
-            std::sort(verts.begin(), verts.end());
-            verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-            const Index edges = interior_halfedges / 2 + border_halfedges;
-            const Index chi = static_cast<Index>(verts.size()) - edges +
-                              static_cast<Index>(faces.size());
-            HOLOFLOW_REQUIRE(chi == 1, where + " is not a disk (it wraps a handle): use a "
-                                               "smaller hole_radius");
-            // Later tips whose hole touches an earlier one are dropped.
-            for (Index v : verts)
-                if (hole_vertex[v]) keep = false;
-            if (keep) {
-                for (Index v : verts) hole_vertex[v] = 1;
-                for (Index f : faces) removed[f] = 1;
-                out.tips.push_back(tip);
-                out.hole_faces.emplace_back(faces);
-                std::sort(out.hole_faces.back().begin(), out.hole_faces.back().end());
+            for (Index f : faces) {
+                removed[f] = 1;
+                for (int k = 0; k < 3; ++k) hole_vertex[mesh.F(f, k)] = 1;
             }
+            out.tips.push_back(tip);
+            out.hole_faces.emplace_back(faces);
+            std::sort(out.hole_faces.back().begin(), out.hole_faces.back().end());
         }
         for (Index f : faces) in_hole[f] = 0;
     }

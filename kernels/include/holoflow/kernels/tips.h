@@ -19,8 +19,9 @@ struct TipOptions {
     int max_tips = 8;  //!< at most this many tips are kept, most prominent first
     int min_tips = 2;  //!< at least this many (a closed genus-0 surface needs 2, a disk 1)
     //! A tip rises at least `prominence * diameter` above the highest saddle that joins it to
-    //! higher ground (topographic prominence of the measure, which is a length), AND it is the
-    //! highest vertex within geodesic radius `prominence * diameter` of itself (its isolation).
+    //! higher ground (topographic prominence of the measure, which is a length). The measure is
+    //! 1-Lipschitz along edge paths, so a tip is then also the highest vertex within edge-path
+    //! radius `prominence * diameter` of itself (its isolation is at least its prominence).
     //! 0.05 keeps the legs, horns and tail of the bull and the hands, feet and head of the man,
     //! and none of the ripples of a sphere (whose measure is constant up to sampling noise).
     double prominence = 0.05;
@@ -38,9 +39,10 @@ struct TipMeasure {
     std::vector<Index> sources;  //!< farthest point samples of the average (none with boundary)
 };
 
-//! Detected tips with their scores; tips[i] has prominence[i] and isolation[i], both relative to
-//! the diameter. Fallback tips have prominence 0 and, as isolation, their distance to the tips
-//! before them and the boundary (1 for a first fallback tip, the highest vertex).
+//! Detected tips with their scores; tips[i] has prominence[i] and isolation[i] (edge-path
+//! distance to the nearest higher vertex; 1 for the highest), both relative to the diameter.
+//! Fallback tips have prominence 0 and, as isolation, their distance to the tips before them
+//! and the boundary (1 for a first fallback tip, the highest vertex).
 struct TipDetection {
     TipMeasure measure;
     std::vector<Index> tips;
@@ -53,10 +55,11 @@ struct TipDetection {
 //! \pre the mesh is connected.  \throw InvalidInput otherwise.
 TipMeasure compute_tip_measure(const MeshView& mesh, const TipOptions& options = {});
 
-//! Tips: local maxima of compute_tip_measure that pass the `prominence` tests, ordered by
+//! Tips: local maxima of compute_tip_measure that pass the `prominence` test, ordered by
 //! prominence (decreasing; ties by vertex id), at most max_tips. When fewer than min_tips pass
 //! (a round blob), farthest point sampling from the tips found (or, when none passed, from the
-//! highest vertex) and from the boundary completes them: on a sphere, two nearly antipodal vertices. Deterministic.
+//! highest vertex) and from the boundary completes them: on a sphere, two nearly antipodal
+//! vertices. Deterministic.
 //! \pre the mesh is connected, 1 <= min_tips <= max_tips, samples >= 1, prominence in [0, 1].
 //! \throw InvalidInput otherwise.
 TipDetection detect_tips(const MeshView& mesh, const TipOptions& options = {});
@@ -76,8 +79,9 @@ struct SlicedMesh {
 //! faces whose three corners are within Dijkstra distance hole_radius * R of the tip, with
 //! R = sqrt(area / (4 pi)) (the radius of the sphere of equal area); the one-ring always goes.
 //! Each hole is then cleaned into a topological disk whose border is a simple loop: pockets it
-//! encloses (kept pieces no larger than the hole) join it, and a vertex where the remaining faces
-//! form two fans (two border arcs touching) loses all its faces, until neither happens.
+//! encloses (kept pieces no larger than the hole) join it. A border touching itself at a vertex
+//! always encloses such a pocket on a genus-0 surface; on a handle it makes the hole a non-disk,
+//! which is refused.
 //! Tips are processed in the given order; a tip whose cleaned hole shares a vertex with an
 //! earlier hole, or reaches the mesh boundary, is dropped (not merged), so the result has exactly
 //! one new boundary loop per entry of its `tips`. Remaining faces and vertices keep the input
