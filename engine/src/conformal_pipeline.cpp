@@ -149,13 +149,6 @@ nlohmann::json conformal_report(const ConformalResult& r) {
             row.push_back({r.basis.period_matrix(i, j).real(), r.basis.period_matrix(i, j).imag()});
         period.push_back(row);
     }
-    nlohmann::json timings = nlohmann::json::object();
-    double total = 0;
-    for (const auto& [stage, ms] : r.timings_ms) {
-        timings[stage] = ms;
-        total += ms;
-    }
-    timings["total"] = total;
     nlohmann::json j = {
         {"genus", r.input_genus},
         {"working_genus", g},
@@ -184,7 +177,7 @@ nlohmann::json conformal_report(const ConformalResult& r) {
           {"max", r.quality.distortion_max}}},
         {"intrinsic_flips", r.intrinsic_flips},
         {"negative_cotan_weights", r.negative_weights},
-        {"timings_ms", timings},
+        {"timings_ms", timings_report(r.timings_ms)},
     };
     if (g == 1) {
         const Complex m = kernels::reduce_modulus(r.basis.period_matrix(0, 0));

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/tips.h"
@@ -14,6 +13,8 @@ namespace {
 using Complex = std::complex<double>;
 using kernels::Trajectory;
 using kernels::TrajectoryFamily;
+
+constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -29,7 +30,7 @@ Eigen::VectorXcd restrict_to_first_copy(const MeshView& open, const MeshView& co
 // Clusters of the working surface as regions of the traced surface. On a double cover only the
 // clusters that reach the first copy count (the others are their mirrors); mirrored vertices
 // fold back onto the first copy.
-std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r, std::vector<Index>& region_zero) {
+std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r) {
     const kernels::ZeroSet& z = r.zeros;
     const kernels::DoubleCover* cover = r.conformal.cover.get();
     const Index first_copy_vertices = r.traced_input->n_vertices();
@@ -65,7 +66,6 @@ std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r, std::
             }
         }
         regions.push_back(std::move(region));
-        region_zero.push_back(zi);
     }
     return regions;
 }
@@ -75,7 +75,7 @@ std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r, std::
 SegmentationResult segment(const MeshView& input, const SegmentOptions& options) {
     SegmentationResult r;
     r.mode = options.mode;
-    StageTimes seg_times;
+    StageTimes seg_times;  // after the conformal stages in the report
     StageClock clock(seg_times);
 
     const kernels::Topology topology = kernels::compute_topology(input);
@@ -93,32 +93,28 @@ SegmentationResult segment(const MeshView& input, const SegmentOptions& options)
         }
         kernels::SlicedMesh sliced = kernels::slice_tips(input, tips, options.hole_size);
         r.tips = sliced.tips;
-        r.traced_input_vertex = std::move(sliced.original_vertex);
         r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
         clock.lap("tip_slicing");
     } else {
         HOLOFLOW_REQUIRE(options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
         r.traced_input = std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input);
-        r.traced_input_vertex.resize(input.n_vertices());
-        std::iota(r.traced_input_vertex.begin(), r.traced_input_vertex.end(), 0);
     }
     const MeshView& traced = *r.traced_input;
 
-    r.conformal = compute_conformal(traced, options.conformal);
-    StageClock seg_clock(seg_times);
+    r.conformal = compute_conformal(traced, options.conformal);  // times its own stages
+    clock.restart();
     const MeshView& surface = *r.conformal.surface;
     r.zeros = kernels::find_zeros(surface, r.conformal.tau);
-    seg_clock.lap("zeros");
+    clock.lap("zeros");
 
     const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
     const Eigen::VectorXcd tau = r.conformal.double_covered
                                      ? restrict_to_first_copy(traced, surface, r.conformal.tau)
                                      : r.conformal.tau;
-    std::vector<Index> region_zero;
     const std::vector<kernels::ZeroRegion> regions =
-        torus ? std::vector<kernels::ZeroRegion>{} : zero_regions(r, region_zero);
+        torus ? std::vector<kernels::ZeroRegion>{} : zero_regions(r);
     r.regular = kernels::regularise_zeros(traced, tau, regions);
-    seg_clock.lap("zero_fans");
+    clock.lap("zero_fans");
 
     // Starts: each zero's fan centre, or (fan failed) its cluster's best vertex.
     std::vector<Index> regular_of(traced.n_vertices(), -1);
@@ -134,36 +130,36 @@ SegmentationResult segment(const MeshView& input, const SegmentOptions& options)
             v = regular_of[fallback];
         }
         if (v < 0) continue;
-        r.starts.push_back({v, regions[i].order});
-        r.start_zero.push_back(region_zero[i]);
+        r.zero_vertices.push_back(v);
     }
     std::vector<TrajectoryFamily> families{TrajectoryFamily::Vertical};
     if (options.mode == SegmentMode::Layout) families.push_back(TrajectoryFamily::Horizontal);
     kernels::TraceOptions trace_options;
     trace_options.motorcycle = options.mode == SegmentMode::Layout;
-    r.trajectories = kernels::trace_trajectories(r.regular.mesh, r.regular.tau, r.starts, families, trace_options);
-    seg_clock.lap("tracing");
+    r.trajectories = kernels::trace_trajectories(r.regular.mesh, r.regular.tau, r.zero_vertices, families, trace_options);
+    clock.lap("tracing");
 
-    r.cut = kernels::cut_along_trajectories(r.regular.mesh, r.regular.tau, r.trajectories);
-    std::vector<char> border(r.cut.mesh.n_edges(), 0);
-    for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) border[e] = r.cut.edge_trajectory[e] >= 0;
+    // No zeros on a torus: it opens along its homology cut graph into one parallelogram. Without
+    // fans the regularised mesh keeps the surface's faces and corners.
+    std::vector<Index> extra_border;
     if (torus) {
-        // No zeros: the torus opens along its homology cut graph into one parallelogram.
-        for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) {
-            const Index h = r.cut.mesh.edge_halfedge[e];
-            const Index f = r.cut.original_face[MeshView::face(h)];
-            const Index k = h % 3;
-            const Index old_h = 3 * f + k;  // no trajectories: faces and corners unchanged
-            border[e] = r.conformal.homology.cut_edge[surface.halfedge_edge[old_h]];
-            if (border[e]) r.cut.edge_trajectory[e] = -2;  // the homology cut, not a trajectory
+        const MeshView& m = r.regular.mesh;
+        extra_border.assign(m.n_edges(), kernels::kNoBorder);
+        for (Index e = 0; e < m.n_edges(); ++e) {
+            const Index h = m.edge_halfedge[e];
+            const Index surface_h = 3 * r.regular.original_face[MeshView::face(h)] + h % 3;
+            if (r.conformal.homology.cut_edge[surface.halfedge_edge[surface_h]]) extra_border[e] = kHomologyCut;
         }
     }
-    seg_clock.lap("cutting");
+    r.cut = kernels::cut_along_trajectories(r.regular.mesh, r.regular.tau, r.trajectories, extra_border);
+    std::vector<char> border(r.cut.mesh.n_edges(), 0);
+    for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) border[e] = r.cut.edge_trajectory[e] != kernels::kNoBorder;
+    clock.lap("cutting");
     r.patches = kernels::compute_patches(r.cut.mesh, r.cut.tau, border);
     std::vector<char> is_zero(r.cut.mesh.n_vertices(), 0);
-    for (const kernels::TraceStart& s : r.starts) is_zero[s.vertex] = 1;  // cut keeps old vertex ids
+    for (Index v : r.zero_vertices) is_zero[v] = 1;  // the cut keeps the traced mesh's vertex ids
     r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);
-    seg_clock.lap("patches");
+    clock.lap("patches");
 
     r.timings_ms = r.conformal.timings_ms;
     for (const auto& stage : seg_times) r.timings_ms.push_back(stage);
@@ -234,13 +230,6 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         ends[end_name(t.end)] = ends[end_name(t.end)].get<int>() + 1;
         unfinished += t.end == Trajectory::End::LengthCap;
     }
-    nlohmann::json timings = nlohmann::json::object();
-    double total = 0;
-    for (const auto& [stage, ms] : r.timings_ms) {
-        timings[stage] = ms;
-        total += ms;
-    }
-    timings["total"] = total;
     return {
         {"genus", r.input_genus},
         {"working_genus", r.conformal.basis.genus},
@@ -271,7 +260,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"conformal_distortion", {{"mean", faces ? distortion_sum / faces : 0.0}, {"max", distortion_max}}},
         {"vertices", r.cut.mesh.n_vertices()},
         {"faces", r.cut.mesh.n_faces()},
-        {"timings_ms", timings},
+        {"timings_ms", timings_report(r.timings_ms)},
     };
 }
 
@@ -284,7 +273,7 @@ nlohmann::json complex_report(const SegmentationResult& r) {
     }
     for (const auto& piece : g.pieces) {
         std::string kind = "boundary";
-        if (piece.label == -2) kind = "homology_cut";
+        if (piece.label == kHomologyCut) kind = "homology_cut";
         else if (piece.label >= 0)
             kind = r.trajectories[piece.label].family == TrajectoryFamily::Vertical ? "vertical" : "horizontal";
         edges.push_back({{"from", piece.from},

@@ -16,10 +16,6 @@ using Complex = std::complex<double>;
 
 constexpr Index kParallelFaces = 20000;  // below this, threads cost more than they save
 
-Complex form_along(const MeshView& mesh, const Eigen::VectorXcd& tau, Index h) {
-    return static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
-}
-
 }  // namespace
 
 ConformalMap integrate_form(const MeshView& mesh, const HomologyBasis& homology,

@@ -4,6 +4,7 @@
 #include <complex>
 #include <map>
 
+#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/parallel.h"
 
@@ -23,15 +24,13 @@ struct FaceSegment {
 
 struct Polygon {
     std::vector<Index> points;  // counter-clockwise
-    std::vector<Index> edge;    // edge k (points[k] -> points[k+1]): trajectory on it or -1
+    std::vector<Index> edge;    // edge k (points[k] -> points[k+1]): its border label
 };
 
 struct Triangle {
     std::array<Index, 3> v;
-    std::array<Index, 3> cut;  // trajectory along edge k (v[k] -> v[k+1]) or -1
+    std::array<Index, 3> cut;  // border label of edge k (v[k] -> v[k+1])
 };
-
-double cross(Complex a, Complex b) { return a.real() * b.imag() - a.imag() * b.real(); }
 
 // Splits `poly` by a chord between two of its points; false if they are not both on it.
 bool split(std::vector<Polygon>& polys, const FaceSegment& s) {
@@ -83,8 +82,8 @@ void triangulate(const Polygon& poly, const std::vector<Complex>& pos, std::vect
         }
         if (ear == m) ear = 1;  // degenerate polygon: clip anyway (zero-area triangle)
         const std::size_t i0 = (ear + m - 1) % m, i2 = (ear + 1) % m;
-        out.push_back({{pts[i0], pts[ear], pts[i2]}, {edge[i0], edge[ear], -1}});
-        edge[i0] = -1;  // the diagonal i0 -> i2 replaces edges i0 and ear
+        out.push_back({{pts[i0], pts[ear], pts[i2]}, {edge[i0], edge[ear], kNoBorder}});
+        edge[i0] = kNoBorder;  // the diagonal i0 -> i2 replaces edges i0 and ear
         pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(ear));
         edge.erase(edge.begin() + static_cast<std::ptrdiff_t>(ear));
     }
@@ -94,8 +93,10 @@ void triangulate(const Polygon& poly, const std::vector<Complex>& pos, std::vect
 }  // namespace
 
 CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
-                               std::span<const Trajectory> trajectories) {
+                               std::span<const Trajectory> trajectories, std::span<const Index> edge_label) {
     HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
+    HOLOFLOW_REQUIRE(edge_label.empty() || static_cast<Index>(edge_label.size()) == mesh.n_edges(),
+                     "edge labels must have one value per edge");
     const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
     const Index nt = static_cast<Index>(trajectories.size());
 
@@ -161,7 +162,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     // Chart position of every point seen from a face (corner 0 at 0).
     std::vector<Complex> along(mesh.n_halfedges());
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
-        along[h] = static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
+        along[h] = form_along(mesh, tau, h);
     const auto corner_image = [&](Index f, int k) {
         return k == 0 ? Complex(0) : k == 1 ? along[3 * f] : -along[3 * f + 2];
     };
@@ -173,12 +174,18 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
         std::vector<Complex> pos;
         for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
+            const auto label = [&](int k) { return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[3 * f + k]]; };
+            auto& segs = face_segments[f];
+            if (segs.empty()) {
+                face_triangles[f].push_back({{mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)}, {label(0), label(1), label(2)}});
+                continue;
+            }
             Polygon poly;
             std::vector<std::pair<Index, Complex>> local;  // point id -> chart position
             for (int k = 0; k < 3; ++k) {
                 const Index h = 3 * f + k;
                 poly.points.push_back(mesh.F(f, k));
-                poly.edge.push_back(-1);
+                poly.edge.push_back(label(k));
                 local.emplace_back(mesh.F(f, k), corner_image(f, k));
                 const auto& list = edge_points[mesh.halfedge_edge[h]];
                 const bool forward = mesh.edge_sign(h) > 0;
@@ -186,21 +193,11 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                     const auto& [t_edge, id] = list[forward ? q : list.size() - 1 - q];
                     const double t = forward ? t_edge : 1 - t_edge;
                     poly.points.push_back(id);
-                    poly.edge.push_back(-1);
+                    poly.edge.push_back(label(k));
                     local.emplace_back(id, corner_image(f, k) + t * along[h]);
                 }
             }
-            auto& segs = face_segments[f];
-            if (segs.empty()) {
-                face_triangles[f].push_back({{mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)}, {-1, -1, -1}});
-                continue;
-            }
-            for (const FaceSegment& s : segs)
-                for (Index id : s.inner) {
-                    const auto& [face, b] = point_in_face[id - first_inner];
-                    (void)face;
-                    local.emplace_back(id, b[1] * corner_image(f, 1) + b[2] * corner_image(f, 2));
-                }
+            // Collision points: each ends a curve stopped here (and lies on its blocker's segment).
             for (const FaceSegment& s : segs)
                 if (s.collision_tail) {
                     const auto& b = point_in_face[s.to - first_inner].second;
@@ -215,23 +212,20 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
             std::vector<Polygon> polys{poly};
             for (const FaceSegment& s : segs)
                 if (!split(polys, s)) ++skipped[f];
-            // Local positions in a dense scratch indexed by slot.
+            // Point ids to dense slots of the face's chart positions.
             std::sort(local.begin(), local.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
             local.erase(std::unique(local.begin(), local.end(),
                                     [](const auto& a, const auto& b) { return a.first == b.first; }),
                         local.end());
-            pos.assign(local.size(), Complex(0));
-            std::vector<Polygon> renumbered = polys;
-            const auto slot = [&](Index id) {
-                return static_cast<Index>(std::lower_bound(local.begin(), local.end(), id,
-                                                           [](const auto& a, Index x) { return a.first < x; }) -
-                                          local.begin());
-            };
+            pos.resize(local.size());
             for (std::size_t q = 0; q < local.size(); ++q) pos[q] = local[q].second;
-            for (Polygon& p : renumbered)
-                for (Index& id : p.points) id = slot(id);
+            for (Polygon& p : polys)
+                for (Index& id : p.points)
+                    id = static_cast<Index>(std::lower_bound(local.begin(), local.end(), id,
+                                                             [](const auto& a, Index x) { return a.first < x; }) -
+                                            local.begin());
             std::vector<Triangle> tris;
-            for (const Polygon& p : renumbered) triangulate(p, pos, tris);
+            for (const Polygon& p : polys) triangulate(p, pos, tris);
             for (Triangle& t : tris)
                 for (Index& v : t.v) v = local[v].first;
             face_triangles[f] = std::move(tris);
@@ -284,14 +278,13 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         }
     }
     for (Index s : skipped) out.skipped_segments += s;
-    // Drop unused points (crossings merged away never happen, but stay safe).
     out.mesh = make_mesh_view(std::move(V), std::move(F));
     out.tau.resize(out.mesh.n_edges());
-    out.edge_trajectory.assign(out.mesh.n_edges(), -1);
+    out.edge_trajectory.assign(out.mesh.n_edges(), kNoBorder);
     for (Index h = 0; h < out.mesh.n_halfedges(); ++h) {
         const Index e = out.mesh.halfedge_edge[h];
         if (out.mesh.edge_halfedge[e] == h) out.tau(e) = along_new[h];
-        if (halfedge_cut[h] >= 0) out.edge_trajectory[e] = halfedge_cut[h];
+        if (halfedge_cut[h] != kNoBorder) out.edge_trajectory[e] = halfedge_cut[h];
     }
     return out;
 }

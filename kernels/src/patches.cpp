@@ -3,20 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/flow_cut.h"
+#include "holoflow/kernels/union_find.h"
 
 namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
 constexpr double kFlipTol = 1e-12;  // signed uv area below -tol * (longest edge)^2 is a flip
-
-Complex along(const MeshView& mesh, const Eigen::VectorXcd& tau, Index h) {
-    return static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
-}
 
 }  // namespace
 
@@ -35,8 +32,8 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
         p.info.emplace_back();
         p.face_patch[seed] = id;
         p.corner_uv[3 * seed] = 0;
-        p.corner_uv[3 * seed + 1] = along(mesh, tau, 3 * seed);
-        p.corner_uv[3 * seed + 2] = -along(mesh, tau, 3 * seed + 2);
+        p.corner_uv[3 * seed + 1] = form_along(mesh, tau, 3 * seed);
+        p.corner_uv[3 * seed + 2] = -form_along(mesh, tau, 3 * seed + 2);
         queue.assign(1, seed);
         for (std::size_t q = 0; q < queue.size(); ++q) {
             const Index f = queue[q];
@@ -50,8 +47,8 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
                 const Index kt = t % 3;
                 const Complex base = p.corner_uv[3 * f + (k + 1) % 3];
                 p.corner_uv[3 * g + kt] = base;
-                p.corner_uv[3 * g + (kt + 1) % 3] = base + along(mesh, tau, t);
-                p.corner_uv[3 * g + (kt + 2) % 3] = base - along(mesh, tau, MeshView::prev(t));
+                p.corner_uv[3 * g + (kt + 1) % 3] = base + form_along(mesh, tau, t);
+                p.corner_uv[3 * g + (kt + 2) % 3] = base - form_along(mesh, tau, MeshView::prev(t));
                 queue.push_back(g);
             }
         }
@@ -69,7 +66,7 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
         const Index id = p.face_patch[f];
         ++info.faces;
         const Complex a = p.corner_uv[3 * f], b = p.corner_uv[3 * f + 1], c = p.corner_uv[3 * f + 2];
-        const double area = (b - a).real() * (c - a).imag() - (b - a).imag() * (c - a).real();
+        const double area = cross(b - a, c - a);
         const double scale = std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)});
         info.flipped_uv_triangles += area < -kFlipTol * scale;
         for (const Complex z : {a, b, c}) {
@@ -89,21 +86,15 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
         }
     }
     // Vertices of each patch cut open: corners around a vertex joined across non-border edges.
-    std::vector<Index> wedge(mesh.n_halfedges());
-    std::iota(wedge.begin(), wedge.end(), 0);
-    const auto find = [&](Index x) {
-        while (wedge[x] != x) x = wedge[x] = wedge[wedge[x]];
-        return x;
-    };
+    UnionFind wedges(mesh.n_halfedges());
     for (Index h = 0; h < mesh.n_halfedges(); ++h) {
         const Index p_edge = MeshView::prev(h), t = mesh.twin[p_edge];
         if (t == kNoHalfedge || border[mesh.halfedge_edge[p_edge]]) continue;
-        const Index a = find(h), b = find(t);  // t leaves tail(h): the next corner around it
-        if (a != b) wedge[std::max(a, b)] = std::min(a, b);
+        wedges.unite(h, t);  // t leaves tail(h): the next corner around it
     }
     std::vector<Index> vertices(np, 0);
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
-        if (find(h) == h) ++vertices[p.face_patch[MeshView::face(h)]];
+        if (wedges.find(h) == h) ++vertices[p.face_patch[MeshView::face(h)]];
 
     // Border loops: follow border halfedges of the patch around its faces.
     std::vector<char> walked(mesh.n_halfedges(), 0);
@@ -163,7 +154,7 @@ FlowComplex flow_complex(const MeshView& mesh, std::span<const Index> edge_label
     std::vector<char> is_border(ne, 0);
     for (Index e = 0; e < ne; ++e) {
         const Index h = mesh.edge_halfedge[e];
-        is_border[e] = edge_label[e] >= 0 || mesh.twin[h] == kNoHalfedge;
+        is_border[e] = edge_label[e] != kNoBorder || mesh.twin[h] == kNoHalfedge;
     }
     // Border edges around each vertex.
     std::vector<std::vector<Index>> vertex_border(mesh.n_vertices());

@@ -6,6 +6,7 @@
 #include <limits>
 #include <tuple>
 
+#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/parallel.h"
 
@@ -22,24 +23,23 @@ struct Walker {
     double t_in = 0;         // entry point on `in`
     double d_tail = 0, d_head = 0;  // level offsets at in's tail and head
     bool done = false;
-    Index segments_before_round = 0;
 };
 
 class Tracer {
  public:
-    Tracer(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const TraceStart> starts,
+    Tracer(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const Index> zero_vertices,
            const TraceOptions& options)
         : mesh_(mesh), along_(mesh.n_halfedges()), zero_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0) {
         double area = 0;
         for (Index h = 0; h < mesh.n_halfedges(); ++h) {
-            along_[h] = static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
+            along_[h] = form_along(mesh, tau, h);
             if (mesh.twin[h] == kNoHalfedge) boundary_[mesh.tail(h)] = boundary_[mesh.head(h)] = 1;
         }
         for (Index f = 0; f < mesh.n_faces(); ++f) {
             const Complex a = along_[3 * f], b = -along_[3 * f + 2];
-            area += std::abs(a.real() * b.imag() - a.imag() * b.real()) / 2;
+            area += std::abs(cross(a, b)) / 2;
         }
-        for (const TraceStart& s : starts) zero_[s.vertex] = 1;
+        for (Index v : zero_vertices) zero_[v] = 1;
         unit_ = std::sqrt(area);
         cap_ = options.length_cap * unit_;
         max_crossings_ = 8 * static_cast<std::size_t>(mesh.n_faces()) + 64;
@@ -70,17 +70,8 @@ class Tracer {
                 tr.family = family;
                 const double t = db / (db - dc);
                 tr.length = std::abs(level(along_[h] + t * along_[across], other(family)));
-                tr.crossings.push_back({across, t, tr.length});
                 Walker w;
-                if (mesh_.twin[across] == kNoHalfedge) {
-                    tr.end = Trajectory::End::Boundary;
-                    w.done = true;
-                } else {
-                    w.in = mesh_.twin[across];
-                    w.t_in = 1 - t;
-                    w.d_tail = dc;
-                    w.d_head = db;
-                }
+                step_across(tr, w, across, t, db, dc);
                 out.push_back(std::move(tr));
                 walkers.push_back(w);
             }
@@ -116,19 +107,26 @@ class Tracer {
             const Complex exit_base = exit == MeshView::next(in) ? along_[in] : along_[in] + along_[MeshView::next(in)];
             const Complex exit_point = exit_base + t * along_[exit];
             tr.length += std::abs(level(exit_point - entry, other(fam)));
-            tr.crossings.push_back({exit, t, tr.length});
-            if (mesh_.twin[exit] == kNoHalfedge) {
-                tr.end = Trajectory::End::Boundary;
-                w.done = true;
-            } else if (tr.length > cap_ || tr.crossings.size() > max_crossings_) {
-                tr.end = Trajectory::End::LengthCap;
-                w.done = true;
-            } else {
-                w.in = mesh_.twin[exit];
-                w.t_in = 1 - t;
-                w.d_tail = dh;
-                w.d_head = dt;
-            }
+            step_across(tr, w, exit, t, dt, dh);
+        }
+    }
+
+    // Records the crossing of `exit` at t (tr.length already counts the way there; d_tail and
+    // d_head are the level offsets at exit's ends) and enters the next face, or ends the curve
+    // at the boundary or the cap.
+    void step_across(Trajectory& tr, Walker& w, Index exit, double t, double d_tail, double d_head) const {
+        tr.crossings.push_back({exit, t, tr.length});
+        if (mesh_.twin[exit] == kNoHalfedge) {
+            tr.end = Trajectory::End::Boundary;
+            w.done = true;
+        } else if (tr.length > cap_ || tr.crossings.size() > max_crossings_) {
+            tr.end = Trajectory::End::LengthCap;
+            w.done = true;
+        } else {
+            w.in = mesh_.twin[exit];  // entered from its tail, which is exit's head
+            w.t_in = 1 - t;
+            w.d_tail = d_head;
+            w.d_head = d_tail;
         }
     }
 
@@ -164,7 +162,7 @@ class Tracer {
 struct Segment {
     Index trajectory, index, face;
     Complex from, to;
-    double length_from, length_to;
+    double length_from;
     bool from_vertex, to_vertex;  // starts at its zero / ends at a vertex
 };
 
@@ -185,17 +183,16 @@ Index Trajectory::segment_face(const MeshView& mesh, Index j) const {
 }
 
 std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
-                                           std::span<const TraceStart> starts,
+                                           std::span<const Index> zero_vertices,
                                            std::span<const TrajectoryFamily> families,
                                            const TraceOptions& options) {
     HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
-    for (const TraceStart& s : starts)
-        HOLOFLOW_REQUIRE(s.vertex >= 0 && s.vertex < mesh.n_vertices(), "start vertex out of range");
-    const Tracer tracer(mesh, tau, starts, options);
+    for (Index v : zero_vertices) HOLOFLOW_REQUIRE(v >= 0 && v < mesh.n_vertices(), "zero vertex out of range");
+    const Tracer tracer(mesh, tau, zero_vertices, options);
     std::vector<Trajectory> out;
     std::vector<Walker> walkers;
-    for (const TraceStart& s : starts)
-        for (TrajectoryFamily fam : families) tracer.start(s.vertex, fam, out, walkers);
+    for (Index v : zero_vertices)
+        for (TrajectoryFamily fam : families) tracer.start(v, fam, out, walkers);
     const Index n = static_cast<Index>(out.size());
     if (!(tracer.unit() > 0)) return out;
 
@@ -218,16 +215,14 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
     const auto segment = [&](Index i, Index j) {
         const Trajectory& tr = out[i];
         const Index f = tr.segment_face(mesh, j);
-        Segment s{i, j, f, {}, {}, 0, 0, j == 0, false};
+        Segment s{i, j, f, {}, {}, 0, j == 0, false};
         s.from = j == 0 ? tracer.corner_image(f, corner_of(f, tr.start_vertex))
                         : tracer.crossing_image(f, tr.crossings[j - 1]);
         s.length_from = j == 0 ? 0 : tr.crossings[j - 1].length;
         if (j < static_cast<Index>(tr.crossings.size())) {
             s.to = tracer.crossing_image(f, tr.crossings[j]);
-            s.length_to = tr.crossings[j].length;
         } else {
             s.to = tracer.corner_image(f, corner_of(f, tr.end_vertex));
-            s.length_to = tr.length;
             s.to_vertex = true;
         }
         return s;
@@ -274,9 +269,8 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
             tr.blocker_length = e.early;
             tr.length = e.late;
             const Complex c1 = tracer.corner_image(e.face, 1), c2 = tracer.corner_image(e.face, 2);
-            const double area = c1.real() * c2.imag() - c1.imag() * c2.real();
-            const double b1 = (e.point.real() * c2.imag() - e.point.imag() * c2.real()) / area;
-            const double b2 = (c1.real() * e.point.imag() - c1.imag() * e.point.real()) / area;
+            const double area = cross(c1, c2);
+            const double b1 = cross(e.point, c2) / area, b2 = cross(c1, e.point) / area;
             tr.end_barycentric = {1 - b1 - b2, b1, b2};
             walkers[e.stopped].done = true;
         }

@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 
+#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 
 namespace holoflow::kernels {
@@ -14,12 +15,6 @@ namespace {
 using Complex = std::complex<double>;
 constexpr int kMaxGrowth = 4;
 constexpr double kOrientationTol = 1e-12;  // relative to the squared image edge lengths
-
-Complex along(const MeshView& mesh, const Eigen::VectorXcd& tau, Index h) {
-    return static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
-}
-
-double cross(Complex a, Complex b) { return a.real() * b.imag() - a.imag() * b.real(); }
 
 // Faces around every vertex, CSR.
 struct VertexFaces {
@@ -60,15 +55,15 @@ class FanBuilder {
             if (mesh.twin[h] == kNoHalfedge) is_boundary_vertex_[mesh.tail(h)] = is_boundary_vertex_[mesh.head(h)] = 1;
     }
 
-    // The fan for one region, or nullopt-like false. `grown` reports the rings added.
-    bool build(const ZeroRegion& region, Fan& fan, int& grown) {
+    // The fan for one region; false when no star up to kMaxGrowth rings takes one.
+    bool build(const ZeroRegion& region, Fan& fan) {
         std::vector<Index> seeds = region.vertices;
         if (region.vertex >= 0) seeds.push_back(region.vertex);
         if (region.face >= 0)
             for (int k = 0; k < 3; ++k) seeds.push_back(mesh_.F(region.face, k));
         std::sort(seeds.begin(), seeds.end());
         seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
-        for (grown = 0; grown <= kMaxGrowth; ++grown) {
+        for (int grown = 0; grown <= kMaxGrowth; ++grown) {
             if (try_region(region, seeds, fan)) return true;
             // Grow by one ring: every vertex of the current star becomes a seed.
             std::vector<Index> next;
@@ -79,7 +74,6 @@ class FanBuilder {
             next.erase(std::unique(next.begin(), next.end()), next.end());
             seeds.swap(next);
         }
-        grown = kMaxGrowth;
         return false;
     }
 
@@ -104,35 +98,31 @@ class FanBuilder {
 
     bool develop_and_fan(const ZeroRegion& region, Fan& fan) {
         ++generation_;
-        // Develop the form over the star by a walk across its interior edges.
+        // Develop the form over the star by a walk across its interior edges (in_region_ turns
+        // from 1 to 2 on the faces reached).
         std::vector<Index> queue{fan.region_faces.front()};
-        std::vector<char> seen_face;  // local: index into region_faces via binary search
-        auto local = [&](Index f) {
-            return static_cast<Index>(std::lower_bound(fan.region_faces.begin(), fan.region_faces.end(), f) -
-                                      fan.region_faces.begin());
-        };
-        seen_face.assign(fan.region_faces.size(), 0);
-        seen_face[0] = 1;
+        in_region_[queue[0]] = 2;
         set_image(mesh_.F(queue[0], 0), 0);
-        Index vertices = 0, interior_halfedges = 0, border_halfedges = 0;
+        Index vertices = 1, interior_halfedges = 0;
         for (std::size_t q = 0; q < queue.size(); ++q) {
             const Index f = queue[q];
             Index h = 3 * f;
             while (stamp_[mesh_.tail(h)] != generation_) h = MeshView::next(h);
             for (int s = 0; s < 2; ++s, h = MeshView::next(h)) {
-                const Complex expected = image_[mesh_.tail(h)] + along(mesh_, tau_, h);
+                const Complex expected = image_[mesh_.tail(h)] + form_along(mesh_, tau_, h);
                 if (stamp_[mesh_.head(h)] != generation_) {
                     set_image(mesh_.head(h), expected);
+                    ++vertices;
                 } else if (std::abs(image_[mesh_.head(h)] - expected) >
-                           1e-8 * (std::abs(expected) + std::abs(along(mesh_, tau_, h)))) {
+                           1e-8 * (std::abs(expected) + std::abs(form_along(mesh_, tau_, h)))) {
                     return false;  // the star is not simply connected (wraps around a handle)
                 }
             }
             for (int k = 0; k < 3; ++k) {
                 const Index t = mesh_.twin[3 * f + k];
-                if (t == kNoHalfedge || !in_region_[MeshView::face(t)]) continue;
-                const Index g = local(MeshView::face(t));
-                if (!seen_face[g]) seen_face[g] = 1, queue.push_back(MeshView::face(t));
+                if (t == kNoHalfedge || in_region_[MeshView::face(t)] != 1) continue;
+                in_region_[MeshView::face(t)] = 2;
+                queue.push_back(MeshView::face(t));
             }
         }
         if (queue.size() != fan.region_faces.size()) return false;  // not connected
@@ -145,15 +135,7 @@ class FanBuilder {
                 else if (!in_region_[MeshView::face(t)]) inner.push_back(h);
                 else ++interior_halfedges;
             }
-        border_halfedges = static_cast<Index>(inner.size() + outer.size());
-        {
-            std::vector<Index> vs;
-            for (Index f : fan.region_faces)
-                for (int k = 0; k < 3; ++k) vs.push_back(mesh_.F(f, k));
-            std::sort(vs.begin(), vs.end());
-            vertices = static_cast<Index>(std::unique(vs.begin(), vs.end()) - vs.begin());
-        }
-        const Index edges = interior_halfedges / 2 + border_halfedges;
+        const Index edges = interior_halfedges / 2 + static_cast<Index>(inner.size() + outer.size());
         if (vertices - edges + static_cast<Index>(fan.region_faces.size()) != 1) return false;  // not a disk
         if (inner.empty()) return false;
 
@@ -298,19 +280,16 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     FanBuilder builder(mesh, tau);
     std::vector<Fan> fans;
     out.region_vertex.assign(regions.size(), -1);
-    out.region_grown.assign(regions.size(), 0);
     std::vector<Index> fan_of_region(regions.size(), -1);
     for (std::size_t r = 0; r < regions.size(); ++r) {
         Fan fan;
-        int grown = 0;
-        if (builder.build(regions[r], fan, grown)) {
+        if (builder.build(regions[r], fan)) {
             builder.claim(fan);
             fan_of_region[r] = static_cast<Index>(fans.size());
             fans.push_back(std::move(fan));
         } else {
             ++out.failed_regions;
         }
-        out.region_grown[r] = static_cast<char>(grown);
     }
 
     // Faces and vertices that go: every star's faces; vertices not on a chain or a centre.
@@ -372,7 +351,7 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
             const Complex a = fan.chain_tail_image[j];
             const Complex b = j + 1 < n ? fan.chain_tail_image[j + 1] : fan.last_head_image;
             along_new[3 * f] = a - fan.centre_image;
-            along_new[3 * f + 1] = along(mesh, tau, h);
+            along_new[3 * f + 1] = form_along(mesh, tau, h);
             along_new[3 * f + 2] = fan.centre_image - b;
             chain_owner[h] = 3 * f + 1;
             if (j > 0) {
@@ -393,7 +372,7 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
         for (int k = 0; k < 3; ++k) {
             const Index h = 3 * f + k;
             F(g, k) = new_vertex[mesh.F(f, k)];
-            along_new[3 * g + k] = along(mesh, tau, h);
+            along_new[3 * g + k] = form_along(mesh, tau, h);
             const Index t = mesh.twin[h];
             if (t == kNoHalfedge) continue;
             if (!face_removed[MeshView::face(t)]) {

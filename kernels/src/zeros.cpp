@@ -3,14 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <numeric>
 
 #include <Eigen/Dense>
 
 #include <Eigen/Geometry>
 
+#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/parallel.h"
+#include "holoflow/kernels/union_find.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -21,9 +22,10 @@ constexpr Index kParallelFaces = 20000;
 // Image of halfedge h; an exactly zero image takes a generic linear image of the 3D edge vector
 // (then of the edge's orientation), so no corner angle is atan2(0, 0).
 Complex image_direction(const MeshView& mesh, const Eigen::VectorXcd& tau, Index h) {
+    const Complex image = form_along(mesh, tau, h);
+    if (image != Complex(0)) return image;
     const Index e = mesh.halfedge_edge[h];
     const double sign = mesh.edge_sign(h);
-    if (tau(e) != Complex(0)) return sign * tau(e);
     const Eigen::RowVector3d d = mesh.V.row(mesh.E(e, 1)) - mesh.V.row(mesh.E(e, 0));
     const Complex generic(d(0) + 0.3719 * d(1) + 0.6113 * d(2), 0.5347 * d(0) - d(1) + 0.2953 * d(2));
     return sign * (generic != Complex(0) ? generic : Complex(1, 0));
@@ -33,19 +35,6 @@ double corner_angle(Complex from, Complex to) {
     const Complex r = std::conj(from) * to;
     return std::atan2(r.imag(), r.real());
 }
-
-struct UnionFind {
-    std::vector<Index> parent;
-    explicit UnionFind(Index n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-    Index find(Index x) {
-        while (parent[x] != x) x = parent[x] = parent[parent[x]];
-        return x;
-    }
-    void unite(Index a, Index b) {
-        a = find(a), b = find(b);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);  // root = smallest member
-    }
-};
 
 // Critical point of the quadratic through the face's three images, laid out isometrically.
 // Returns false when the images are (nearly) affine: no critical point to speak of.

@@ -110,6 +110,12 @@ TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
         ASSERT_EQ(r.patches.info.size(), 1u);
         EXPECT_EQ(r.patches.info[0].type, kernels::PatchInfo::Type::Disk);  // the fundamental domain
         EXPECT_EQ(flipped(r), 0);
+        // The complex's edges are the cut graph, with the one patch on both sides.
+        ASSERT_FALSE(r.complex.pieces.empty());
+        for (const auto& piece : r.complex.pieces) {
+            EXPECT_NE(piece.label, kernels::kNoBorder);
+            EXPECT_EQ(piece.patches, (std::array<Index, 2>{0, 0}));
+        }
     }
 }
 

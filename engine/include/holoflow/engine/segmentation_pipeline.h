@@ -36,12 +36,10 @@ struct SegmentationResult {
     //! sliced (closed genus 0 / disks); open ones are traced on their double cover's first copy.
     std::shared_ptr<const MeshView> traced_input;
     std::vector<Index> tips;                  //!< input vertex ids sliced
-    std::vector<Index> traced_input_vertex;   //!< traced_input vertex -> input vertex
     ConformalResult conformal;
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface
     kernels::RegularisedForm regular;         //!< traced_input with zero fans
-    std::vector<Index> start_zero;            //!< per trace start: index into zeros.zeros
-    std::vector<kernels::TraceStart> starts;  //!< on regular.mesh
+    std::vector<Index> zero_vertices;         //!< per trace start: its vertex of regular.mesh
     std::vector<kernels::Trajectory> trajectories;
     kernels::CutMesh cut;
     kernels::Patches patches;

@@ -1,6 +1,8 @@
 #pragma once
 
 #include <chrono>
+
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,10 +21,24 @@ class StageClock {
         times_.emplace_back(stage, std::chrono::duration<double, std::milli>(now - last_).count());
         last_ = now;
     }
+    //! Starts the next lap now, leaving out the time since the previous one (work timed elsewhere).
+    void restart() { last_ = std::chrono::steady_clock::now(); }
 
  private:
     StageTimes& times_;
     std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
 };
+
+//! `timings_ms` of the reports: one entry per stage plus their `total`.
+inline nlohmann::json timings_report(const StageTimes& times) {
+    nlohmann::json timings = nlohmann::json::object();
+    double total = 0;
+    for (const auto& [stage, ms] : times) {
+        timings[stage] = ms;
+        total += ms;
+    }
+    timings["total"] = total;
+    return timings;
+}
 
 }  // namespace holoflow::engine

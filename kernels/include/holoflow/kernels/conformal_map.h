@@ -11,6 +11,16 @@
 
 namespace holoflow::kernels {
 
+//! Value of the 1-form `tau` (one value per edge, along E(e,0) -> E(e,1)) along halfedge h.
+inline std::complex<double> form_along(const MeshView& mesh, const Eigen::VectorXcd& tau, Index h) {
+    return static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
+}
+
+//! Cross product of two plane vectors given as complex numbers (twice their triangle's signed area).
+inline double cross(std::complex<double> a, std::complex<double> b) {
+    return a.real() * b.imag() - a.imag() * b.real();
+}
+
 //! A holomorphic 1-form integrated over the fundamental domain.
 struct ConformalMap {
     std::vector<std::complex<double>> wedge_uv;  //!< one complex coordinate per wedge

@@ -10,13 +10,18 @@
 
 namespace holoflow::kernels {
 
+//! Label of an edge that is no patch border.
+constexpr Index kNoBorder = -1;
+
 //! A mesh refined so that traced trajectories run along its edges.
 struct CutMesh {
     MeshView mesh;
     Eigen::VectorXcd tau;                 //!< the form on the new edges (closed)
     std::vector<Index> original_face;     //!< per face: the face of the traced mesh it lies in
     std::vector<Index> original_vertex;   //!< per vertex: traced-mesh vertex, -1 if inserted
-    std::vector<Index> edge_trajectory;   //!< per edge: trajectory running along it, or -1
+    //! Per edge: the trajectory running along it, the label it inherits from `edge_label`, or
+    //! kNoBorder.
+    std::vector<Index> edge_trajectory;
     Index skipped_segments = 0;           //!< segments that could not be inserted (reported)
 };
 
@@ -25,8 +30,11 @@ struct CutMesh {
 //! along its segments (purely combinatorially: a segment splits the one sub-polygon that has
 //! both its end points, with the collision points of later curves on it in arrival order) and
 //! the pieces triangulated by ear clipping in the face's image chart. Faces in parallel.
+//! `edge_label` (empty, or one per edge of `mesh`, kNoBorder for none) marks further borders,
+//! e.g. a homology cut graph (labels other than trajectory ids); sub-edges inherit it.
 //! \pre trajectories traced on `mesh` with `tau` (trace_trajectories).  \throw InvalidInput.
 CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
-                               std::span<const Trajectory> trajectories);
+                               std::span<const Trajectory> trajectories,
+                               std::span<const Index> edge_label = {});
 
 }  // namespace holoflow::kernels

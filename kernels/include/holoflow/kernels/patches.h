@@ -50,7 +50,7 @@ struct FlowComplex {
     struct Piece {
         std::vector<Index> vertices;  //!< path along mesh vertices (first = last for a loop)
         Index from = -1, to = -1;     //!< node ids, -1 for a node-less loop
-        Index label = -1;             //!< trajectory id, -1 for the surface boundary
+        Index label = -1;             //!< its edges' label; kNoBorder for the surface boundary
         std::array<Index, 2> patches{-1, -1};  //!< left and right of its first edge (-1: outside)
     };
     std::vector<Node> nodes;
@@ -58,8 +58,9 @@ struct FlowComplex {
     std::vector<std::vector<Index>> patch_pieces;  //!< per patch: its pieces, ascending
 };
 
-//! \brief Builds G from the cut mesh: `edge_label` per edge is the trajectory running along it
-//! (-1 none); boundary edges are borders labelled -1. A vertex is a node when its border degree
+//! \brief Builds G from the cut mesh: `edge_label` per edge is its border label (a trajectory
+//! id, another label such as a homology cut, or kNoBorder = -1); boundary edges are borders
+//! labelled kNoBorder. A vertex is a node when its border degree
 //! is not 2, its two border edges differ in label, or it is a zero.
 FlowComplex flow_complex(const MeshView& mesh, std::span<const Index> edge_label,
                          std::span<const Index> face_patch, std::span<const char> is_zero);

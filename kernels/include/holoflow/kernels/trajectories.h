@@ -55,12 +55,6 @@ struct TraceOptions {
     double length_cap = 16;
 };
 
-//! The start vertices' order: a zero of order k at vertex v (winding k + 1 of its fan).
-struct TraceStart {
-    Index vertex = -1;
-    int order = 0;
-};
-
 //! \brief Critical trajectories of the closed form `tau` on a mesh without flipped image
 //! triangles near the zeros (regularise_zeros): from each zero vertex, every direction where the
 //! level u = u(zero) (vertical) or v = v(zero) (horizontal) leaves its one-ring. Traced face by
@@ -71,9 +65,9 @@ struct TraceStart {
 //! cap, or (motorcycle) an earlier trajectory: all curves advance in rounds of doubling image
 //! length concurrently, collisions are resolved afterwards in order of the later arrival time
 //! (ties by id), so the result does not depend on the thread count.
-//! `families`: which families to trace. \throw InvalidInput on bad starts.
+//! `families`: which families to trace. \throw InvalidInput on bad zero vertices.
 std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
-                                           std::span<const TraceStart> starts,
+                                           std::span<const Index> zero_vertices,
                                            std::span<const TrajectoryFamily> families,
                                            const TraceOptions& options = {});
 

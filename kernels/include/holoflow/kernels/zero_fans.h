@@ -28,7 +28,6 @@ struct RegularisedForm {
     std::vector<Index> original_vertex;  //!< per vertex: input vertex, -1 for inserted zero points
     std::vector<Index> original_face;    //!< per face: input face, -1 for fan faces
     std::vector<Index> region_vertex;    //!< per region: its fan centre in `mesh`, -1 if failed
-    std::vector<char> region_grown;      //!< per region: rings added to its star (0..kMaxGrowth)
     Index removed_vertices = 0;          //!< input vertices inside fans (replaced by the centre)
     Index failed_regions = 0;            //!< left as they were (counted, their flips remain)
 };
