@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "holoflow/engine/factorization_cache.h"
 #include "holoflow/engine/stage_clock.h"
 #include "holoflow/kernels/cholesky.h"
 #include "holoflow/kernels/cotan_laplacian.h"
@@ -20,9 +21,16 @@ constexpr double kNegativeWeightTol = 1e-12;
 
 }  // namespace
 
-ConformalResult compute_conformal(const MeshView& input, const ConformalOptions& options) {
-    ConformalResult r;
+namespace conformal_stage {
+
+ConformalWork prepare(std::shared_ptr<const MeshView> input_ptr, ConformalOptions options) {
+    HOLOFLOW_REQUIRE(input_ptr != nullptr, "no mesh");
+    ConformalWork work;
+    work.input = std::move(input_ptr);
+    work.options = std::move(options);
+    ConformalResult& r = work.result;
     StageClock clock(r.timings_ms);
+    const MeshView& input = *work.input;
 
     const kernels::Topology topology = kernels::compute_topology(input);
     r.input_genus = topology.genus;
@@ -41,79 +49,140 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
         HOLOFLOW_REQUIRE(topology.genus > 0,
                          "a closed genus-0 surface has no holomorphic 1-form (tip slicing "
                          "comes with segmentation)");
-        r.surface = std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input);
+        r.surface = work.input;
     }
-    const MeshView& surface = *r.surface;
+    return work;
+}
 
-    r.homology = kernels::compute_homology_basis(surface);
+void homology(ConformalWork& work) {
+    ConformalResult& r = work.result;
+    StageClock clock(r.timings_ms);
+    r.homology = kernels::compute_homology_basis(*r.surface);
     clock.lap("cut_graph_and_closed_forms");
-    if (options.closed_forms) {
+    if (work.options.closed_forms) {
         HOLOFLOW_REQUIRE(!r.double_covered, "given closed forms need closed input");
-        HOLOFLOW_REQUIRE(options.closed_forms->rows() == surface.n_edges() &&
-                             options.closed_forms->cols() == r.homology.closed_forms.cols(),
+        HOLOFLOW_REQUIRE(work.options.closed_forms->rows() == r.surface->n_edges() &&
+                             work.options.closed_forms->cols() == r.homology.closed_forms.cols(),
                          "given closed forms must be #E x 2g");
     }
-    const Eigen::MatrixXd& eta = options.closed_forms ? *options.closed_forms : r.homology.closed_forms;
+}
 
+void laplacian(ConformalWork& work) {
+    ConformalResult& r = work.result;
+    StageClock clock(r.timings_ms);
+    const MeshView& surface = *r.surface;
     // The Laplacian lives on the intrinsic Delaunay triangulation (or the mesh itself); vertex
     // functions are shared by both, so the harmonic forms come back to the mesh's edges exactly.
-    kernels::IntrinsicTriangulation intrinsic;
-    const MeshView* laplace_mesh = &surface;
-    const Eigen::MatrixXd* laplace_eta = &eta;  // the closed forms on the Laplacian's mesh
-    std::vector<double> weights;
-    if (options.laplacian == LaplacianKind::IntrinsicDelaunay) {
-        intrinsic = kernels::intrinsic_delaunay(surface, eta);
-        r.intrinsic_flips = intrinsic.flips;
-        laplace_mesh = &intrinsic.mesh;
-        laplace_eta = &intrinsic.forms;
+    if (work.intrinsic_laplacian()) {
+        work.intrinsic = kernels::intrinsic_delaunay(surface, work.closed_forms());
+        r.intrinsic_flips = work.intrinsic.flips;
         clock.lap("intrinsic_delaunay");
-        weights = kernels::cotan_weights_from_lengths(intrinsic.mesh.halfedge_edge,
-                                                      intrinsic.edge_length, intrinsic.mesh.n_edges());
+        work.weights = kernels::cotan_weights_from_lengths(
+            work.intrinsic.mesh.halfedge_edge, work.intrinsic.edge_length, work.intrinsic.mesh.n_edges());
     } else {
-        weights = kernels::cotan_weights(surface);
+        work.weights = kernels::cotan_weights(surface);
     }
     {
         // Cocircular quads (rectangles in CAD meshes) give weights of -1e-15 by rounding.
         double scale = 0;
-        for (double w : weights) scale = std::max(scale, std::abs(w));
+        for (double w : work.weights) scale = std::max(scale, std::abs(w));
         r.negative_weights = static_cast<Index>(std::count_if(
-            weights.begin(), weights.end(), [&](double w) { return w < -kNegativeWeightTol * scale; }));
+            work.weights.begin(), work.weights.end(),
+            [&](double w) { return w < -kNegativeWeightTol * scale; }));
     }
-    const std::vector<Index> pinned{r.homology.root};
-    const kernels::LaplacianMatrix L =
-        kernels::assemble_laplacian(surface.n_vertices(), laplace_mesh->E, weights, pinned);
+    work.pinned = {r.homology.root};
+    work.laplacian = kernels::assemble_laplacian(surface.n_vertices(), work.laplace_mesh().E,
+                                                 work.weights, work.pinned);
     clock.lap("laplacian_assembly");
-    const auto symbolic = kernels::CholeskySymbolic::analyse(L);
-    clock.lap("analyse");
-    const auto factor = kernels::CholeskyFactor::factorize(symbolic, L);
-    clock.lap("factorise");
+}
 
-    // One solve for all 2g right-hand sides; the potential corrects the forms on both
-    // triangulations (it lives on the shared vertices).
-    const Eigen::MatrixXd potential =
-        kernels::harmonic_potential(laplace_mesh->E, weights, *factor, *laplace_eta, pinned);
-    r.harmonic = eta;
+void factorise(ConformalWork& work, FactorizationCache* cache) {
+    StageClock clock(work.result.timings_ms);
+    const auto symbolic = cache ? cache->analysis(work.laplacian)
+                                : kernels::CholeskySymbolic::analyse(work.laplacian);
+    clock.lap("analyse");
+    if (work.options.max_solver_bytes > 0) {
+        // The supernodal factor plus the right-hand sides and potentials of one solve.
+        const std::size_t columns = static_cast<std::size_t>(work.closed_forms().cols());
+        const std::size_t bytes =
+            8 * (symbolic->factor_nonzeros() + 3 * columns * static_cast<std::size_t>(symbolic->size()));
+        if (bytes > work.options.max_solver_bytes)
+            throw ResourceLimit("the solver would need about " + std::to_string(bytes >> 20) +
+                                " MiB, over the limit of " +
+                                std::to_string(work.options.max_solver_bytes >> 20) + " MiB");
+    }
+    work.factor = kernels::CholeskyFactor::factorize(symbolic, work.laplacian);
+    work.laplacian = {};  // the factor holds what the solves need
+    clock.lap("factorise");
+}
+
+int begin_solves(ConformalWork& work) {
+    work.solves_started = std::chrono::steady_clock::now();
+    const Eigen::Index columns = work.closed_forms().cols();
+    work.potential_blocks.assign((columns + kSolveBlockColumns - 1) / kSolveBlockColumns, {});
+    return static_cast<int>(work.potential_blocks.size());
+}
+
+Eigen::MatrixXd solve_block(const ConformalWork& work, int block) {
+    const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
+    const Eigen::Index first = block * kSolveBlockColumns;
+    HOLOFLOW_REQUIRE(block >= 0 && first < eta.cols(), "solve block out of range");
+    const Eigen::Index count = std::min(kSolveBlockColumns, eta.cols() - first);
+    return kernels::harmonic_potential(work.laplace_mesh().E, work.weights, *work.factor,
+                                       eta.middleCols(first, count), work.pinned);
+}
+
+void end_solves(ConformalWork& work) {
+    ConformalResult& r = work.result;
+    const MeshView& surface = *r.surface;
+    const MeshView& laplace_mesh = work.laplace_mesh();
+    work.factor.reset();
+    Eigen::MatrixXd potential(surface.n_vertices(), work.closed_forms().cols());
+    Eigen::Index column = 0;
+    for (Eigen::MatrixXd& block : work.potential_blocks) {
+        HOLOFLOW_REQUIRE(block.rows() == potential.rows() && column + block.cols() <= potential.cols(),
+                         "solve blocks do not match the forms");
+        potential.middleCols(column, block.cols()) = block;
+        column += block.cols();
+        block = {};
+    }
+    HOLOFLOW_REQUIRE(column == potential.cols(), "missing solve blocks");
+    work.potential_blocks.clear();
+    // The potential corrects the forms on both triangulations (it lives on the shared vertices);
+    // on the intrinsic one its carried forms become the harmonic ones in place.
+    r.harmonic = work.closed_forms();
     kernels::add_gradient(surface.E, potential, r.harmonic);
-    // On the intrinsic triangulation its carried forms become the harmonic ones in place.
-    Eigen::MatrixXd& laplace_omega = laplace_mesh == &surface ? r.harmonic : intrinsic.forms;
-    if (laplace_mesh != &surface) kernels::add_gradient(laplace_mesh->E, potential, laplace_omega);
-    clock.lap("solves");
+    Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
+    if (work.intrinsic_laplacian()) kernels::add_gradient(laplace_mesh.E, potential, laplace_omega);
     {
         // Divergence left at the vertices, relative to the largest flux w_e omega_e it sums.
         Eigen::MatrixXd residual =
-            kernels::codifferential(surface.n_vertices(), laplace_mesh->E, weights, laplace_omega);
-        for (Index p : pinned) residual.row(p).setZero();  // the pinned row carries the balance
-        const Eigen::Map<const Eigen::VectorXd> w(weights.data(), laplace_omega.rows());
+            kernels::codifferential(surface.n_vertices(), laplace_mesh.E, work.weights, laplace_omega);
+        for (Index p : work.pinned) residual.row(p).setZero();  // the pinned row carries the balance
+        const Eigen::Map<const Eigen::VectorXd> w(work.weights.data(), laplace_omega.rows());
         const double scale = (laplace_omega.array().colwise() * w.array()).abs().maxCoeff();
         r.coclosedness_max = scale > 0 ? residual.cwiseAbs().maxCoeff() / scale : 0;
     }
+    r.timings_ms.emplace_back(
+        "solves",
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - work.solves_started).count());
+}
 
-    r.star = kernels::hodge_star(weights, laplace_omega, kernels::wedge_matrix(surface, eta));
+void hodge_star(ConformalWork& work) {
+    ConformalResult& r = work.result;
+    StageClock clock(r.timings_ms);
+    const Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
+    r.star = kernels::hodge_star(work.weights, laplace_omega, kernels::wedge_matrix(*r.surface, work.closed_forms()));
     clock.lap("hodge_star");
     r.basis = kernels::holomorphic_basis(r.star);
-    r.closedness_max = kernels::closedness_error(surface, r.harmonic);
+    r.closedness_max = kernels::closedness_error(*r.surface, r.harmonic);
     clock.lap("holomorphic_basis");
+}
 
+void integrate(ConformalWork& work) {
+    ConformalResult& r = work.result;
+    StageClock clock(r.timings_ms);
+    const MeshView& surface = *r.surface;
     r.form_coefficients =
         r.double_covered
             ? kernels::even_form_coefficients(kernels::involution_matrix(*r.cover, r.homology))
@@ -127,17 +196,40 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
     r.tau = chosen_form(r.harmonic);
     r.map = kernels::integrate_form(surface, r.homology, r.tau);
     r.input_mesh_quality = kernels::map_quality(surface, kernels::edge_lengths(surface), r.tau);
-    if (laplace_mesh == &surface) {
+    if (!work.intrinsic_laplacian()) {
         r.quality = r.input_mesh_quality;
     } else {
-        r.quality =
-            kernels::map_quality(*laplace_mesh, intrinsic.edge_length, chosen_form(laplace_omega));
+        r.quality = kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
+                                         chosen_form(work.intrinsic.forms));
     }
+    work.intrinsic = {};
+    work.weights = {};
     clock.lap("integration");
 
     if (!r.harmonic.allFinite() || !r.tau.allFinite())
         throw SolverFailure("conformal: non-finite values in the harmonic forms");
-    return r;
+}
+
+void run_after_prepare(ConformalWork& work, FactorizationCache* cache) {
+    homology(work);
+    laplacian(work);
+    factorise(work, cache);
+    const int blocks = begin_solves(work);
+    for (int b = 0; b < blocks; ++b) work.potential_blocks[b] = solve_block(work, b);
+    end_solves(work);
+    hodge_star(work);
+    integrate(work);
+}
+
+}  // namespace conformal_stage
+
+ConformalResult compute_conformal(const MeshView& input, const ConformalOptions& options,
+                                  FactorizationCache* cache) {
+    // The caller owns the mesh: a non-owning pointer to it.
+    ConformalWork work = conformal_stage::prepare(
+        std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input), options);
+    conformal_stage::run_after_prepare(work, cache);
+    return std::move(work.result);
 }
 
 nlohmann::json conformal_report(const ConformalResult& r) {

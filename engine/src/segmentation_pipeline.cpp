@@ -72,11 +72,17 @@ std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r) {
 
 }  // namespace
 
-SegmentationResult segment(const MeshView& input, const SegmentOptions& options) {
-    SegmentationResult r;
-    r.mode = options.mode;
-    StageTimes seg_times;  // after the conformal stages in the report
-    StageClock clock(seg_times);
+namespace segment_stage {
+
+SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptions options) {
+    HOLOFLOW_REQUIRE(input_ptr != nullptr, "no mesh");
+    SegmentationWork work;
+    work.input = std::move(input_ptr);
+    work.options = std::move(options);
+    SegmentationResult& r = work.result;
+    r.mode = work.options.mode;
+    StageClock clock(r.timings_ms);
+    const MeshView& input = *work.input;
 
     const kernels::Topology topology = kernels::compute_topology(input);
     r.input_genus = topology.genus;
@@ -84,37 +90,46 @@ SegmentationResult segment(const MeshView& input, const SegmentOptions& options)
                                                    " components; use --component largest");
     // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1).
     if (topology.genus == 0 && topology.boundary_loops <= 1) {
-        std::vector<Index> tips = options.tips;
+        std::vector<Index> tips = work.options.tips;
         if (tips.empty()) {
             kernels::TipOptions tip_options;
-            tip_options.max_tips = std::max(2, options.max_tips);
+            tip_options.max_tips = std::max(2, work.options.max_tips);
             tip_options.min_tips = topology.boundary_loops == 0 ? 2 : 1;
             tips = kernels::find_tips(input, tip_options);
         }
-        kernels::SlicedMesh sliced = kernels::slice_tips(input, tips, options.hole_size);
+        kernels::SlicedMesh sliced = kernels::slice_tips(input, tips, work.options.hole_size);
         r.tips = sliced.tips;
         r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
         clock.lap("tip_slicing");
     } else {
-        HOLOFLOW_REQUIRE(options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
-        r.traced_input = std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input);
+        HOLOFLOW_REQUIRE(work.options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
+        r.traced_input = work.input;
     }
-    const MeshView& traced = *r.traced_input;
+    work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal);
+    return work;
+}
 
-    r.conformal = compute_conformal(traced, options.conformal);  // times its own stages
-    clock.restart();
-    const MeshView& surface = *r.conformal.surface;
-    r.zeros = kernels::find_zeros(surface, r.conformal.tau);
-    clock.lap("zeros");
-
+void zeros(SegmentationWork& work) {
+    SegmentationResult& r = work.result;
+    r.conformal = std::move(work.conformal.result);
+    work.conformal = {};
+    r.timings_ms.insert(r.timings_ms.end(), r.conformal.timings_ms.begin(), r.conformal.timings_ms.end());
+    StageClock clock(r.timings_ms);
+    r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau);
     const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
+    if (!torus) work.regions = zero_regions(r);
+    clock.lap("zeros");
+}
+
+void fans(SegmentationWork& work) {
+    SegmentationResult& r = work.result;
+    StageClock clock(r.timings_ms);
+    const MeshView& traced = *r.traced_input;
     const Eigen::VectorXcd tau = r.conformal.double_covered
-                                     ? restrict_to_first_copy(traced, surface, r.conformal.tau)
+                                     ? restrict_to_first_copy(traced, *r.conformal.surface, r.conformal.tau)
                                      : r.conformal.tau;
-    const std::vector<kernels::ZeroRegion> regions =
-        torus ? std::vector<kernels::ZeroRegion>{} : zero_regions(r);
+    const std::vector<kernels::ZeroRegion>& regions = work.regions;
     r.regular = kernels::regularise_zeros(traced, tau, regions);
-    clock.lap("zero_fans");
 
     // Starts: each zero's fan centre, or (fan failed) its cluster's best vertex.
     std::vector<Index> regular_of(traced.n_vertices(), -1);
@@ -132,15 +147,27 @@ SegmentationResult segment(const MeshView& input, const SegmentOptions& options)
         if (v < 0) continue;
         r.zero_vertices.push_back(v);
     }
+    clock.lap("zero_fans");
+}
+
+void trace(SegmentationWork& work) {
+    SegmentationResult& r = work.result;
+    StageClock clock(r.timings_ms);
     std::vector<TrajectoryFamily> families{TrajectoryFamily::Vertical};
-    if (options.mode == SegmentMode::Layout) families.push_back(TrajectoryFamily::Horizontal);
+    if (work.options.mode == SegmentMode::Layout) families.push_back(TrajectoryFamily::Horizontal);
     kernels::TraceOptions trace_options;
-    trace_options.motorcycle = options.mode == SegmentMode::Layout;
+    trace_options.motorcycle = work.options.mode == SegmentMode::Layout;
     r.trajectories = kernels::trace_trajectories(r.regular.mesh, r.regular.tau, r.zero_vertices, families, trace_options);
     clock.lap("tracing");
+}
 
+void cut(SegmentationWork& work) {
+    SegmentationResult& r = work.result;
+    StageClock clock(r.timings_ms);
+    const MeshView& surface = *r.conformal.surface;
     // No zeros on a torus: it opens along its homology cut graph into one parallelogram. Without
     // fans the regularised mesh keeps the surface's faces and corners.
+    const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
     std::vector<Index> extra_border;
     if (torus) {
         const MeshView& m = r.regular.mesh;
@@ -160,10 +187,20 @@ SegmentationResult segment(const MeshView& input, const SegmentOptions& options)
     for (Index v : r.zero_vertices) is_zero[v] = 1;  // the cut keeps the traced mesh's vertex ids
     r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);
     clock.lap("patches");
+}
 
-    r.timings_ms = r.conformal.timings_ms;
-    for (const auto& stage : seg_times) r.timings_ms.push_back(stage);
-    return r;
+}  // namespace segment_stage
+
+SegmentationResult segment(const MeshView& input, const SegmentOptions& options, FactorizationCache* cache) {
+    // The caller owns the mesh: a non-owning pointer to it.
+    SegmentationWork work = segment_stage::prepare(
+        std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input), options);
+    conformal_stage::run_after_prepare(work.conformal, cache);
+    segment_stage::zeros(work);
+    segment_stage::fans(work);
+    segment_stage::trace(work);
+    segment_stage::cut(work);
+    return std::move(work.result);
 }
 
 namespace {

@@ -1,6 +1,9 @@
 #pragma once
 
+#include <chrono>
+#include <cstddef>
 #include <memory>
+#include <stdexcept>
 #include <optional>
 #include <string>
 #include <utility>
@@ -10,21 +13,37 @@
 #include <nlohmann/json.hpp>
 
 #include "holoflow/engine/stage_clock.h"
+#include "holoflow/kernels/cholesky.h"
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/double_cover.h"
 #include "holoflow/kernels/holomorphic.h"
 #include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/intrinsic_delaunay.h"
 #include "holoflow/kernels/mesh_view.h"
 
 namespace holoflow::engine {
 
+class FactorizationCache;
+
 enum class LaplacianKind { IntrinsicDelaunay, Extrinsic };
+
+//! A model needs more memory than the caller allows (exit status 7, kind `resource_limit`).
+struct ResourceLimit : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+//! The 2g harmonic right-hand sides are solved in blocks of this many columns, each block one
+//! task. Fixed (never derived from the thread count) so the bits do not depend on it.
+constexpr Eigen::Index kSolveBlockColumns = 4;
 
 struct ConformalOptions {
     LaplacianKind laplacian = LaplacianKind::IntrinsicDelaunay;
     //! Closed input only: a cohomology basis (#E x 2g closed forms) to use instead of the
     //! tree-cotree one, e.g. carried from a coarser mesh so that period matrices compare.
     std::optional<Eigen::MatrixXd> closed_forms;
+    //! Refuse (ResourceLimit) before factorizing when the solver's estimated memory exceeds this
+    //! many bytes; 0: no limit.
+    std::size_t max_solver_bytes = 0;
 };
 
 
@@ -52,11 +71,61 @@ struct ConformalResult {
     StageTimes timings_ms;
 };
 
+//! One model between the conformal stages. The flow graph's nodes hand it from stage to stage;
+//! compute_conformal runs the same stages in sequence. Each stage appends its wall time to
+//! result.timings_ms and drops what later stages no longer need.
+struct ConformalWork {
+    std::shared_ptr<const MeshView> input;
+    ConformalOptions options;
+    ConformalResult result;
+    kernels::IntrinsicTriangulation intrinsic;  //!< with LaplacianKind::IntrinsicDelaunay
+    std::vector<double> weights;                //!< cotan weights on laplace_mesh()'s edges
+    std::vector<Index> pinned;
+    kernels::LaplacianMatrix laplacian;
+    std::shared_ptr<const kernels::CholeskyFactor> factor;
+    std::vector<Eigen::MatrixXd> potential_blocks;  //!< one per solve block, each written by its own task
+    std::chrono::steady_clock::time_point solves_started;
+
+    bool intrinsic_laplacian() const { return options.laplacian == LaplacianKind::IntrinsicDelaunay; }
+    //! The triangulation the Laplacian is built on, and the closed forms on it.
+    const MeshView& laplace_mesh() const { return intrinsic_laplacian() ? intrinsic.mesh : *result.surface; }
+    const Eigen::MatrixXd& closed_forms() const {
+        return options.closed_forms ? *options.closed_forms : result.homology.closed_forms;
+    }
+};
+
+//! The conformal stages in order (DESIGN 2.2-2.4); each throws as compute_conformal does.
+namespace conformal_stage {
+//! Topology checks, double cover for open input.
+ConformalWork prepare(std::shared_ptr<const MeshView> input, ConformalOptions options);
+//! Tree-cotree cut graph, homology loops, closed forms.
+void homology(ConformalWork& work);
+//! Intrinsic Delaunay flips (or the mesh itself), cotan weights, the pinned Laplacian.
+void laplacian(ConformalWork& work);
+//! Symbolic analysis (from `cache` when given and its pattern was seen), memory check, numeric
+//! factor.
+void factorise(ConformalWork& work, FactorizationCache* cache = nullptr);
+//! Sizes potential_blocks and returns their number (starts the `solves` clock).
+int begin_solves(ConformalWork& work);
+//! The potentials of block `block`'s columns (for potential_blocks[block]); reads `work` only,
+//! so blocks may run at once.
+Eigen::MatrixXd solve_block(const ConformalWork& work, int block);
+//! Harmonic forms from the block potentials (which it consumes), co-closedness check.
+void end_solves(ConformalWork& work);
+//! Hodge star, canonical basis, period matrix, closedness.
+void hodge_star(ConformalWork& work);
+//! The chosen form, its integration and map quality.
+void integrate(ConformalWork& work);
+//! Every stage after prepare, in order, serially (the flow graph's serial twin).
+void run_after_prepare(ConformalWork& work, FactorizationCache* cache = nullptr);
+}  // namespace conformal_stage
+
 //! Runs the conformal stage on a validated mesh: double cover for open surfaces, tree-cotree,
 //! closed forms, intrinsic Delaunay (or extrinsic cotan), ONE factorization for all 2g solves,
 //! Hodge star, canonical basis, period matrix, integration of the chosen form.
 //! \throw InvalidInput for closed genus 0, disks and several components; SolverFailure.
-ConformalResult compute_conformal(const MeshView& mesh, const ConformalOptions& options = {});
+ConformalResult compute_conformal(const MeshView& mesh, const ConformalOptions& options = {},
+                                  FactorizationCache* cache = nullptr);
 
 //! The `conformal.json` object (keys documented in README).
 nlohmann::json conformal_report(const ConformalResult& result);

@@ -48,10 +48,36 @@ struct SegmentationResult {
     StageTimes timings_ms;                    //!< conformal stages, then segmentation stages
 };
 
-//! \brief The holomorphic flow segmentation of a validated, connected mesh of any genus.
+//! One model between the segmentation stages (as ConformalWork for the conformal ones, which run
+//! between prepare and zeros on `conformal`).
+struct SegmentationWork {
+    std::shared_ptr<const MeshView> input;
+    SegmentOptions options;
+    SegmentationResult result;
+    ConformalWork conformal;
+    std::vector<kernels::ZeroRegion> regions;  //!< zero clusters on the traced surface
+};
+
+//! The segmentation stages in order (DESIGN 2.1, 2.5-2.7); each throws as segment() does.
+namespace segment_stage {
+//! Topology checks, tip slicing (closed genus 0 and disks), then conformal_stage::prepare.
+SegmentationWork prepare(std::shared_ptr<const MeshView> input, SegmentOptions options);
+//! Takes the finished conformal result; zeros and their clusters.
+void zeros(SegmentationWork& work);
+//! Zero fans: every zero becomes a vertex with no flipped image triangle around it.
+void fans(SegmentationWork& work);
+//! Critical trajectories from every zero (both families with the motorcycle rule in layout mode).
+void trace(SegmentationWork& work);
+//! Cut along the trajectories, patches with their maps, the flow complex.
+void cut(SegmentationWork& work);
+}  // namespace segment_stage
+
+//! \brief The holomorphic flow segmentation of a validated, connected mesh of any genus: the
+//! stages above in sequence (the flow graph in graphs/ runs the same ones as nodes).
 //! \throw InvalidInput (several components, genus-0 surface where no tip can be sliced),
-//! SolverFailure.
-SegmentationResult segment(const MeshView& input, const SegmentOptions& options = {});
+//! SolverFailure, ResourceLimit.
+SegmentationResult segment(const MeshView& input, const SegmentOptions& options = {},
+                           FactorizationCache* cache = nullptr);
 
 //! `segmentation.json` (keys documented in README).
 nlohmann::json segmentation_report(const SegmentationResult& result);
