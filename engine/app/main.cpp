@@ -6,10 +6,14 @@
 #include <functional>
 #include <iostream>
 #include <new>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <unistd.h>
 
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/engine/mesh_loader.h"
@@ -17,40 +21,30 @@
 #include "holoflow/engine/report.h"
 #include "holoflow/engine/segmentation_output.h"
 #include "holoflow/engine/segmentation_pipeline.h"
+#include "holoflow/engine/status.h"
+#include "holoflow/graphs/segmentation_graph.h"
 #include "holoflow/kernels/topology.h"
 
 namespace {
 
 using namespace holoflow;
-
-constexpr int kExitInternal = 1;
-constexpr int kExitUsage = 2;
-constexpr int kExitInvalidInput = 3;
-constexpr int kExitSolverFailure = 4;
-constexpr int kExitOutOfMemory = 5;
-constexpr int kExitOutputError = 6;
+using engine::kExitUsage;
 
 int report_error(const std::string& kind, const std::string& detail, int status) {
     std::cerr << "error: " << kind << ": " << detail << std::endl;
     return status;
 }
 
+int report_error(const engine::Status& status) {
+    return report_error(status.kind, status.message, status.exit_code);
+}
+
 // Runs one subcommand and turns every failure into one stderr line and an exit status.
 int run_guarded(const std::function<int()>& body) {
     try {
         return body();
-    } catch (const engine::MeshError& e) {
-        return report_error(engine::to_string(e.kind), e.detail, engine::exit_status(e.kind));
-    } catch (const InvalidInput& e) {
-        return report_error("invalid_input", e.what(), kExitInvalidInput);
-    } catch (const SolverFailure& e) {
-        return report_error("solver_failure", e.what(), kExitSolverFailure);
-    } catch (const engine::OutputError& e) {
-        return report_error("output_error", e.what(), kExitOutputError);
-    } catch (const std::bad_alloc&) {
-        return report_error("out_of_memory", "allocation failed", kExitOutOfMemory);
-    } catch (const std::exception& e) {
-        return report_error("internal", e.what(), kExitInternal);
+    } catch (...) {
+        return report_error(engine::status_from_exception(std::current_exception(), "main"));
     }
 }
 
@@ -114,40 +108,71 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
     return 0;
 }
 
-struct SegmentArgs {
-    MeshArgs mesh;
-    std::string out_dir, mode = "layout", laplacian = "intrinsic";
-    std::vector<holoflow::Index> tips;
+// Options shared by `segment` and `batch`.
+struct SegmentSettings {
+    std::string mode = "layout", laplacian = "intrinsic", components = "all";
+    std::size_t max_faces = 0;
+    std::size_t max_memory_mb = 0;
     int max_tips = 8;
     double hole_size = 0.02;
+
+    void add_to(CLI::App& command) {
+        command.add_option("--mode", mode, "vertical: the paper's trajectories; layout: both families, "
+                                           "motorcycle rule, every patch a rectangle")
+            ->check(CLI::IsMember({"vertical", "layout"}));
+        command.add_option("--laplacian", laplacian, "cotan weights: intrinsic Delaunay or the mesh itself")
+            ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
+        command.add_option("--component", components, "several components: keep all, or only the largest")
+            ->check(CLI::IsMember({"all", "largest"}));
+        command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
+        command.add_option("--max-memory", max_memory_mb,
+                           "refuse a model whose solver would need more MiB than this (0: no limit)");
+        command.add_option("--max-tips", max_tips, "most tips detected automatically")
+            ->check(CLI::Range(2, 64));
+        command.add_option("--hole-size", hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
+            ->check(CLI::Range(0.0, 0.5));
+    }
+    graphs::SegmentationGraphOptions graph_options() const {
+        graphs::SegmentationGraphOptions o;
+        o.load.components = components == "largest" ? engine::ComponentPolicy::Largest : engine::ComponentPolicy::All;
+        o.load.max_faces = max_faces;
+        o.segment.conformal.laplacian =
+            laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic : engine::LaplacianKind::IntrinsicDelaunay;
+        o.segment.conformal.max_solver_bytes = max_memory_mb << 20;
+        o.segment.mode = mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
+        o.segment.max_tips = max_tips;
+        o.segment.hole_size = hole_size;
+        return o;
+    }
+    //! What a finished model's results depend on: a re-run with other values recomputes it.
+    nlohmann::json fingerprint() const {
+        return {{"mode", mode}, {"laplacian", laplacian}, {"component", components},
+                {"max_tips", max_tips}, {"hole_size", hole_size}, {"version", HOLOFLOW_VERSION}};
+    }
+};
+
+struct SegmentArgs {
+    std::string path, out_dir;
+    SegmentSettings settings;
+    std::vector<holoflow::Index> tips;
     bool json = false;
 };
 
+// The per-model flow graph on one mesh.
 int run_segment(const SegmentArgs& args) {
     const std::filesystem::path folder(args.out_dir);
-    engine::prepare_output_folder(folder);
-    const engine::LoadedMesh loaded = engine::load_mesh(args.mesh.path, args.mesh.options());
-    engine::SegmentOptions options;
-    options.conformal.laplacian = args.laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic
-                                                                : engine::LaplacianKind::IntrinsicDelaunay;
-    options.mode = args.mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
-    options.tips = args.tips;
-    options.max_tips = args.max_tips;
-    options.hole_size = args.hole_size;
-    const engine::SegmentationResult result = engine::segment(*loaded.mesh, options);
-    nlohmann::json report = engine::segmentation_report(result);
-    report["file"] = args.mesh.path;
-    const engine::SegmentationPicture picture = engine::segmentation_picture(result);
-    engine::write_file_atomic(folder / "segments.ply",
-                              [&](std::ostream& out) { engine::write_segments_ply(out, picture); });
-    engine::write_file_atomic(folder / "patches.obj",
-                              [&](std::ostream& out) { engine::write_patches_obj(out, picture); });
-    engine::write_file_atomic(folder / "trajectories.obj",
-                              [&](std::ostream& out) { engine::write_trajectories_obj(out, picture); });
-    engine::write_file_atomic(folder / "domains.svg",
-                              [&](std::ostream& out) { engine::write_domains_svg(out, picture); });
-    engine::write_file_atomic(folder / "complex.json", engine::complex_report(result).dump(1) + "\n");
-    engine::write_file_atomic(folder / "segmentation.json", report.dump(2) + "\n");
+    engine::prepare_output_folder(folder);  // fail before the work, not after
+    graphs::SegmentationGraphOptions options = args.settings.graph_options();
+    options.segment.tips = args.tips;
+    options.max_in_flight = 1;
+    engine::ModelTask task;
+    task.path = args.path;
+    task.name = std::filesystem::path(args.path).stem().string();
+    task.out_dir = folder;
+    const std::vector<graphs::ModelRun> runs = graphs::SegmentationGraph(options).run({task});
+    const graphs::ModelRun& run = runs.front();
+    if (!run.outcome.status.ok()) return report_error(run.outcome.status);
+    const nlohmann::json& report = run.report;
     if (args.json) {
         std::cout << report.dump(2) << std::endl;
     } else {
@@ -160,6 +185,74 @@ int run_segment(const SegmentArgs& args) {
                   << "domains.svg, complex.json, segmentation.json in " << folder.string() << "\n";
     }
     return 0;
+}
+
+struct BatchArgs {
+    std::vector<std::string> inputs;
+    std::string out_dir, dot;
+    SegmentSettings settings;
+    unsigned threads = 0;
+    std::size_t max_in_flight = 0;
+    double timeout_s = 0;
+    bool force = false, serial = false;
+};
+
+// The collection flow graph: every model of the inputs, one folder each, a summary.
+int run_batch(const BatchArgs& args) {
+    const std::filesystem::path out_root(args.out_dir);
+    engine::prepare_output_folder(out_root);
+    const std::vector<engine::ModelTask> tasks = engine::make_tasks(engine::expand_inputs(args.inputs), out_root);
+    const unsigned threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+
+    graphs::SegmentationGraphOptions options = args.settings.graph_options();
+    options.max_in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * threads;
+    options.timeout = std::chrono::milliseconds(static_cast<long long>(args.timeout_s * 1000));
+    engine::FactorizationCache cache;
+    const graphs::SegmentationGraph graph(options, &cache);
+    if (!args.dot.empty())
+        engine::write_file_atomic(args.dot, [&](std::ostream& out) { graph.to_dot(out); });
+
+    // Models finished by an earlier run with the same settings are reused, not recomputed.
+    const nlohmann::json settings = args.settings.fingerprint();
+    std::vector<engine::ModelOutcome> outcomes(tasks.size());
+    std::vector<engine::ModelTask> todo;
+    std::vector<std::size_t> todo_index;
+    for (std::size_t i = 0; i < tasks.size(); ++i) {
+        std::optional<engine::ModelOutcome> done = args.force ? std::nullopt : engine::finished_model(tasks[i], settings);
+        if (done) {
+            outcomes[i] = std::move(*done);
+            continue;
+        }
+        engine::ModelTask task = tasks[i];
+        task.id = todo.size();
+        todo.push_back(std::move(task));
+        todo_index.push_back(i);
+    }
+    engine::BatchProgress progress(tasks.size(), std::cerr, ::isatty(STDERR_FILENO) == 1);
+    for (std::size_t i = 0; i < tasks.size() - todo.size(); ++i) progress.model_finished(false, true);
+    const auto on_done = [&](graphs::ModelRun& run) {
+        try {
+            engine::write_model_result(run.outcome, settings);
+        } catch (const engine::OutputError& e) {
+            run.outcome.status = engine::Status::failure("output_error", "result", e.what(), engine::kExitOutputError);
+        }
+        progress.model_finished(!run.outcome.status.ok(), false);
+    };
+    std::vector<graphs::ModelRun> runs = args.serial ? graph.run_serial(todo, on_done) : graph.run(todo, on_done);
+    progress.finish();
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+        outcomes[todo_index[k]] = std::move(runs[k].outcome);
+        outcomes[todo_index[k]].task = tasks[todo_index[k]];
+    }
+    engine::write_batch_summary(out_root, outcomes);
+
+    std::size_t failed = 0;
+    for (const engine::ModelOutcome& o : outcomes) failed += !o.status.ok();
+    std::cout << tasks.size() << " models: " << tasks.size() - failed << " ok, " << failed << " failed, "
+              << tasks.size() - todo.size() << " reused from an earlier run; summary in "
+              << (out_root / "summary.csv").string() << "\n";
+    return failed == 0 ? 0 : engine::kExitBatchFailures;
 }
 
 }  // namespace
@@ -190,21 +283,33 @@ int main(int argc, char** argv) {
     SegmentArgs seg;
     CLI::App* segment = app.add_subcommand(
         "segment", "holomorphic flow segmentation: zeros, critical trajectories, rectangular patches");
-    seg.mesh.add_to(*segment);
+    segment->add_option("MESH", seg.path, "mesh file: .off .obj .ply .stl")->required();
     segment->add_option("-o,--output", seg.out_dir, "output folder")->required();
-    segment->add_option("--mode", seg.mode, "vertical: the paper's trajectories; layout: both families, "
-                                            "motorcycle rule, every patch a rectangle")
-        ->check(CLI::IsMember({"vertical", "layout"}));
-    segment->add_option("--laplacian", seg.laplacian, "cotan weights: intrinsic Delaunay or the mesh itself")
-        ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
+    seg.settings.add_to(*segment);
     segment->add_option("--tips", seg.tips, "closed genus 0 / disks: vertex ids to slice holes at "
                                             "(default: detected extremities)")
         ->delimiter(',');
-    segment->add_option("--max-tips", seg.max_tips, "most tips detected automatically")
-        ->check(CLI::Range(2, 64));
-    segment->add_option("--hole-size", seg.hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
-        ->check(CLI::Range(0.0, 0.5));
     segment->add_flag("--json", seg.json, "also print segmentation.json to stdout");
+
+    BatchArgs batch_args;
+    CLI::App* batch = app.add_subcommand(
+        "batch", "segment many models: mesh files, folders, or text files listing paths");
+    batch->add_option("INPUT", batch_args.inputs, "mesh files, folders (searched recursively), path lists")
+        ->required();
+    batch->add_option("-o,--output", batch_args.out_dir, "output folder: one folder per model, summary.csv/json")
+        ->required();
+    batch_args.settings.add_to(*batch);
+    batch->add_option("--threads", batch_args.threads, "worker threads (default: all cores)")
+        ->check(CLI::Range(1u, 1024u));
+    batch->add_option("--max-in-flight", batch_args.max_in_flight,
+                      "models in memory at once (default: twice the threads)")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 20));
+    batch->add_option("--timeout", batch_args.timeout_s,
+                      "seconds per model, checked between stages (0: no limit)")
+        ->check(CLI::Range(0.0, 1e9));
+    batch->add_flag("--force", batch_args.force, "recompute models finished by an earlier run");
+    batch->add_flag("--serial", batch_args.serial, "run the serial twin instead of the flow graph");
+    batch->add_option("--dot", batch_args.dot, "write the flow graph as a Graphviz DOT file");
 
     try {
         app.parse(argc, argv);
@@ -224,5 +329,6 @@ int main(int argc, char** argv) {
             return run_conformal(conformal_mesh, conformal_out, conformal_laplacian, conformal_json);
         });
     if (segment->parsed()) return run_guarded([&] { return run_segment(seg); });
+    if (batch->parsed()) return run_guarded([&] { return run_batch(batch_args); });
     return report_error("usage", "no subcommand", kExitUsage);
 }

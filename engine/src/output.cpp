@@ -25,7 +25,14 @@ void write_file_atomic(const std::filesystem::path& path,
     const std::filesystem::path temporary = path.parent_path() / name;
     {
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-        if (out) write(out);
+        try {
+            if (out) write(out);
+        } catch (...) {  // a writer that refuses its data leaves no temporary behind
+            out.close();
+            std::error_code ignored;
+            std::filesystem::remove(temporary, ignored);
+            throw;
+        }
         out.flush();
         if (!out) {
             out.close();

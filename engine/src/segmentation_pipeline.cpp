@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "holoflow/engine/output.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/tips.h"
 #include "holoflow/kernels/topology.h"
@@ -323,6 +324,21 @@ nlohmann::json complex_report(const SegmentationResult& r) {
     for (std::size_t p = 0; p < g.patch_pieces.size(); ++p)
         faces.push_back({{"patch", p}, {"edges", g.patch_pieces[p]}});
     return {{"format", "holoflow flow complex 1"}, {"vertices", nodes}, {"edges", edges}, {"faces", faces}};
+}
+
+nlohmann::json write_segmentation_folder(const std::filesystem::path& folder, const std::string& input_path,
+                                         const SegmentationResult& result) {
+    nlohmann::json report = segmentation_report(result);
+    report["file"] = input_path;
+    const SegmentationPicture picture = segmentation_picture(result);
+    write_file_atomic(folder / "segments.ply", [&](std::ostream& out) { write_segments_ply(out, picture); });
+    write_file_atomic(folder / "patches.obj", [&](std::ostream& out) { write_patches_obj(out, picture); });
+    write_file_atomic(folder / "trajectories.obj",
+                      [&](std::ostream& out) { write_trajectories_obj(out, picture); });
+    write_file_atomic(folder / "domains.svg", [&](std::ostream& out) { write_domains_svg(out, picture); });
+    write_file_atomic(folder / "complex.json", complex_report(result).dump(1) + "\n");
+    write_file_atomic(folder / "segmentation.json", report.dump(2) + "\n");
+    return report;
 }
 
 SegmentationPicture segmentation_picture(const SegmentationResult& r) {

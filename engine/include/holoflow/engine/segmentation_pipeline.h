@@ -1,6 +1,8 @@
 #pragma once
 
+#include <filesystem>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -84,6 +86,12 @@ nlohmann::json segmentation_report(const SegmentationResult& result);
 
 //! `complex.json`: the flow complex G = (V, E, F) with adjacency (format in README).
 nlohmann::json complex_report(const SegmentationResult& result);
+
+//! Writes segments.ply, patches.obj, trajectories.obj, domains.svg, complex.json and, last,
+//! segmentation.json (with `file` = input_path) into `folder`, each atomically; returns the
+//! segmentation.json object. \pre folder exists. \throw OutputError.
+nlohmann::json write_segmentation_folder(const std::filesystem::path& folder, const std::string& input_path,
+                                         const SegmentationResult& result);
 
 //! The arrays the picture writers draw.
 SegmentationPicture segmentation_picture(const SegmentationResult& result);

@@ -1,0 +1,267 @@
+#include "holoflow/engine/batch.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <set>
+#include <sstream>
+
+#include "holoflow/engine/output.h"
+#include "holoflow/kernels/errors.h"
+
+namespace holoflow::engine {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool is_mesh_file(const fs::path& path) {
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    return ext == ".off" || ext == ".obj" || ext == ".ply" || ext == ".stl";
+}
+
+void add_unique(std::vector<std::string>& out, std::set<std::string>& seen, const fs::path& path) {
+    std::string key = path.lexically_normal().string();
+    if (seen.insert(key).second) out.push_back(std::move(key));
+}
+
+void add_folder(std::vector<std::string>& out, std::set<std::string>& seen, const fs::path& folder) {
+    std::vector<fs::path> files;
+    std::error_code ec;
+    for (fs::recursive_directory_iterator it(folder, fs::directory_options::skip_permission_denied, ec), end;
+         !ec && it != end; it.increment(ec)) {
+        std::error_code type_ec;
+        if (it->is_regular_file(type_ec) && is_mesh_file(it->path())) files.push_back(it->path());
+    }
+    if (ec) throw InvalidInput("cannot list folder '" + folder.string() + "': " + ec.message());
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) add_unique(out, seen, f);
+}
+
+// A CSV field, quoted when it holds a separator, quote or line break.
+std::string csv_cell(const std::string& text) {
+    if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+    std::string quoted = "\"";
+    for (char c : text) {
+        if (c == '"') quoted += '"';
+        quoted += c;
+    }
+    return quoted + "\"";
+}
+
+std::string format_ms(double ms) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(3) << ms;
+    return s.str();
+}
+
+// Stage columns of summary.csv in pipeline order; stages not listed follow in order of appearance.
+const std::vector<std::string> kStageOrder = {
+    "load", "tip_slicing", "double_cover", "cut_graph_and_closed_forms", "intrinsic_delaunay",
+    "laplacian_assembly", "analyse", "factorise", "solves", "hodge_star", "holomorphic_basis",
+    "integration", "zeros", "zero_fans", "tracing", "cutting", "patches", "write"};
+
+}  // namespace
+
+std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs) {
+    std::vector<std::string> out;
+    std::set<std::string> seen;
+    for (const std::string& input : inputs) {
+        const fs::path path(input);
+        std::error_code ec;
+        if (fs::is_directory(path, ec)) {
+            add_folder(out, seen, path);
+        } else if (!fs::exists(path, ec)) {
+            throw InvalidInput("input '" + input + "' does not exist");
+        } else if (is_mesh_file(path)) {
+            add_unique(out, seen, path);
+        } else {
+            std::ifstream list(path);
+            if (!list) throw InvalidInput("cannot read the list '" + input + "'");
+            std::string line;
+            std::size_t number = 0;
+            while (std::getline(list, line)) {
+                ++number;
+                line.erase(0, line.find_first_not_of(" \t\r"));
+                line.erase(line.find_last_not_of(" \t\r") + 1);
+                if (line.empty() || line[0] == '#') continue;
+                fs::path entry(line);
+                if (entry.is_relative()) entry = path.parent_path() / entry;
+                if (fs::is_directory(entry, ec)) {
+                    add_folder(out, seen, entry);
+                } else {
+                    // A missing file becomes a failed model (file_not_found), not a refused batch:
+                    // lists are often written before the files exist everywhere.
+                    if (!is_mesh_file(entry) && fs::exists(entry, ec))
+                        throw InvalidInput("line " + std::to_string(number) + " of '" + input +
+                                           "' names '" + line + "', not a mesh file or folder");
+                    add_unique(out, seen, entry);
+                }
+            }
+        }
+    }
+    return out;
+}
+
+std::vector<ModelTask> make_tasks(const std::vector<std::string>& paths, const fs::path& out_root) {
+    std::vector<ModelTask> tasks;
+    std::set<std::string> taken;
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+        std::string stem = fs::path(paths[i]).stem().string();
+        if (stem.empty() || stem == "." || stem == "..") stem = "model";
+        std::string name = stem;
+        for (int n = 2; taken.count(name); ++n) name = stem + "~" + std::to_string(n);
+        taken.insert(name);
+        ModelTask task;
+        task.id = i;
+        task.path = paths[i];
+        task.name = name;
+        if (!out_root.empty()) task.out_dir = out_root / name;
+        tasks.push_back(std::move(task));
+    }
+    return tasks;
+}
+
+nlohmann::json outcome_json(const ModelOutcome& o) {
+    nlohmann::json j = {
+        {"model", o.task.name},
+        {"file", o.task.path},
+        {"status", o.status.ok() ? "ok" : "failed"},
+        {"vertices", o.vertices},
+        {"faces", o.faces},
+        {"genus", o.genus},
+        {"working_genus", o.working_genus},
+        {"zeros", o.zeros},
+        {"patches", o.patches},
+        {"timings_ms", timings_report(o.timings_ms)},
+    };
+    j["error"] = o.status.ok() ? nlohmann::json(nullptr)
+                               : nlohmann::json{{"kind", o.status.kind},
+                                                {"stage", o.status.stage},
+                                                {"message", o.status.message}};
+    return j;
+}
+
+void write_model_result(const ModelOutcome& outcome, const nlohmann::json& settings) {
+    if (outcome.task.out_dir.empty()) return;
+    prepare_output_folder(outcome.task.out_dir);
+    nlohmann::json j = outcome_json(outcome);
+    j["settings"] = settings;
+    write_file_atomic(outcome.task.out_dir / "result.json", j.dump(2) + "\n");
+}
+
+std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann::json& settings) {
+    if (task.out_dir.empty()) return std::nullopt;
+    std::ifstream in(task.out_dir / "result.json");
+    if (!in) return std::nullopt;
+    // A result.json we cannot read back (edited, or from another version) means: recompute.
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+    try {
+        if (!j.is_object() || j.value("status", "") != "ok" || j.value("file", "") != task.path ||
+            !j.contains("settings") || j["settings"] != settings)
+            return std::nullopt;
+        ModelOutcome o;
+        o.task = task;
+        o.vertices = j.at("vertices").get<std::size_t>();
+        o.faces = j.at("faces").get<std::size_t>();
+        o.genus = j.at("genus").get<int>();
+        o.working_genus = j.at("working_genus").get<int>();
+        o.zeros = j.at("zeros").get<std::int64_t>();
+        o.patches = j.at("patches").get<std::int64_t>();
+        for (const auto& [stage, ms] : j.at("timings_ms").items())
+            if (stage != "total") o.timings_ms.emplace_back(stage, ms.get<double>());
+        // JSON objects come back sorted by key: restore pipeline order for the CSV columns.
+        std::stable_sort(o.timings_ms.begin(), o.timings_ms.end(), [](const auto& a, const auto& b) {
+            const auto rank = [](const std::string& s) {
+                return std::find(kStageOrder.begin(), kStageOrder.end(), s) - kStageOrder.begin();
+            };
+            return rank(a.first) < rank(b.first);
+        });
+        o.reused = true;
+        return o;
+    } catch (const nlohmann::json::exception&) {
+        return std::nullopt;
+    }
+}
+
+void write_batch_summary(const fs::path& out_root, const std::vector<ModelOutcome>& outcomes) {
+    nlohmann::json all = nlohmann::json::array();
+    for (const ModelOutcome& o : outcomes) all.push_back(outcome_json(o));
+    write_file_atomic(out_root / "summary.json", all.dump(2) + "\n");
+
+    std::vector<std::string> stages = kStageOrder;
+    for (const ModelOutcome& o : outcomes)
+        for (const auto& [stage, ms] : o.timings_ms)
+            if (std::find(stages.begin(), stages.end(), stage) == stages.end()) stages.push_back(stage);
+    std::ostringstream csv;
+    csv << "model,file,status,error_kind,error_stage,error,vertices,faces,genus,working_genus,zeros,patches";
+    for (const std::string& s : stages) csv << ",ms_" << s;
+    csv << ",ms_total\n";
+    for (const ModelOutcome& o : outcomes) {
+        csv << csv_cell(o.task.name) << ',' << csv_cell(o.task.path) << ',' << (o.status.ok() ? "ok" : "failed")
+            << ',' << csv_cell(o.status.kind) << ',' << csv_cell(o.status.stage) << ','
+            << csv_cell(o.status.message) << ',' << o.vertices << ',' << o.faces << ',' << o.genus << ','
+            << o.working_genus << ',' << o.zeros << ',' << o.patches;
+        double total = 0;
+        for (const std::string& s : stages) {
+            csv << ',';
+            for (const auto& [stage, ms] : o.timings_ms)
+                if (stage == s) {
+                    csv << format_ms(ms);
+                    total += ms;
+                    break;
+                }
+        }
+        csv << ',' << format_ms(total) << '\n';
+    }
+    write_file_atomic(out_root / "summary.csv", csv.str());
+}
+
+BatchProgress::BatchProgress(std::size_t total, std::ostream& out, bool interactive,
+                             std::chrono::milliseconds interval)
+    : total_(total), out_(out), interactive_(interactive), interval_(interval) {}
+
+void BatchProgress::model_finished(bool failed, bool reused) {
+    ++done_;
+    failed_ += failed;
+    computed_ += !reused;
+    const auto now = std::chrono::steady_clock::now();
+    // A terminal redraws at most ten times a second; a log gets a line per interval.
+    const auto gap = interactive_ ? std::chrono::milliseconds(100) : interval_;
+    if (now - last_print_ >= gap || (interactive_ && done_ == total_)) {
+        last_print_ = now;
+        print(false);
+    }
+}
+
+void BatchProgress::finish() { print(true); }
+
+void BatchProgress::print(bool final_line) {
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double rate = seconds > 0 ? computed_ / seconds : 0;
+    const std::size_t left = total_ - done_;
+    std::ostringstream line;
+    if (interactive_) {
+        constexpr int kWidth = 30;
+        const int filled = total_ ? static_cast<int>(kWidth * done_ / total_) : kWidth;
+        line << '[' << std::string(filled, '#') << std::string(kWidth - filled, '.') << "] ";
+    }
+    line << done_ << '/' << total_ << " done, " << failed_ << " failed, " << std::fixed
+         << std::setprecision(2) << rate << " models/s";
+    if (left > 0 && rate > 0) {
+        const long eta = std::lround(left / rate);
+        line << ", ETA " << eta / 3600 << ':' << std::setw(2) << std::setfill('0') << (eta / 60) % 60 << ':'
+             << std::setw(2) << eta % 60;
+    } else if (final_line) {
+        line << ", " << std::setprecision(1) << seconds << " s";
+    }
+    if (interactive_)
+        out_ << '\r' << line.str() << "\x1b[K" << (final_line ? "\n" : "") << std::flush;
+    else
+        out_ << "progress: " << line.str() << std::endl;
+}
+
+}  // namespace holoflow::engine
