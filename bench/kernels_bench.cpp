@@ -23,7 +23,6 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -75,7 +74,7 @@ struct ConformalInputs {
     kernels::IntrinsicTriangulation intrinsic;  // forms: the closed forms carried by the flips
     std::vector<double> w;                      // cotan weights of the intrinsic triangulation
     kernels::LaplacianMatrix L;
-    Eigen::MatrixXd rhs;    // -delta(eta), pinned row zero: #V x 2g
+    Eigen::MatrixXd rhs;  // -delta(eta), pinned row zero: #V x 2g
     std::shared_ptr<const kernels::CholeskyFactor> factor;
     Eigen::MatrixXd omega;  // harmonic forms on the intrinsic triangulation's edges
 };
@@ -132,7 +131,8 @@ const ConformalInputs& conformal_inputs(int level) {
     in->L = kernels::assemble_laplacian(mesh.n_vertices(), im.E, in->w, {in->homology.root});
     in->rhs = -kernels::codifferential(mesh.n_vertices(), im.E, in->w, in->intrinsic.forms);
     in->rhs.row(in->homology.root).setZero();
-    in->factor = kernels::CholeskyFactor::factorize(kernels::CholeskySymbolic::analyse(in->L), in->L);
+    in->factor =
+        kernels::CholeskyFactor::factorize(kernels::CholeskySymbolic::analyse(in->L), in->L);
     in->omega = in->intrinsic.forms;
     kernels::add_gradient(im.E, in->factor->solve(in->rhs), in->omega);
     return *cache.emplace(level, std::move(in)).first->second;
@@ -319,7 +319,8 @@ void BM_kernel_hodge_star(benchmark::State& state) {
             const Eigen::Map<const Eigen::VectorXd> w(in.w.data(), in.omega.rows());
             const Eigen::MatrixXd inner = in.omega.transpose() * w.asDiagonal() * in.omega;
             const double scale = inner.norm();
-            if (std::abs(std::abs(s.wedge_det) - 1) > kIdentityTol || s.wedge_integrality_error > kIdentityTol)
+            if (std::abs(std::abs(s.wedge_det) - 1) > kIdentityTol ||
+                s.wedge_integrality_error > kIdentityTol)
                 return fail(state, "wedge matrix is not unimodular");
             if ((s.inner - inner).norm() > kIdentityTol * scale)
                 return fail(state, "inner products differ from omega^T W omega");

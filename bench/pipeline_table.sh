@@ -38,7 +38,8 @@ pt_run() {
     echo "running $label" >&2
     timeout "$pt_limit" "$pt_cli" info "$path" --json >"$pt_work/$n.info" 2>/dev/null || true
     # time wraps timeout, so a killed run still reports its peak RSS (the largest descendant's).
-    local run=(timeout --kill-after=10 "$pt_limit" "$pt_cli" segment "$path" -o "$pt_work/out" --json)
+    local run=(timeout --kill-after=10 "$pt_limit"
+               "$pt_cli" segment "$path" -o "$pt_work/out" --json)
     if [[ -n "$pt_timer" ]]; then
         "$pt_timer" -v -o "$pt_work/$n.time" "${run[@]}" >"$pt_work/$n.json" 2>"$pt_work/$n.err" ||
             status=$?
@@ -51,7 +52,7 @@ pt_run() {
 }
 
 # pt_table MODE: prints the table of every pt_run so far; MODE is `corpus` (every stage group)
-# or `scaling` (conformal vs segmentation, ms per 1k faces, growth exponent between rows).
+# or `scaling` (conformal vs segmentation stages, ms per 1k faces, growth exponent between rows).
 pt_table() {
     python3 - "$pt_work" "$1" "$pt_limit" <<'PY'
 import json, math, os, re, sys
@@ -157,14 +158,15 @@ if mode == "corpus":
         j, g = r["report"], groups(r["report"]["timings_ms"])
         return ([r["label"], count(r["faces"]), str(j["genus"]), str(j["working_genus"]),
                  str(j["zero_count"]), str(j["patch_count"]),
-                 ms(g["tips"]) if TIPS in j["timings_ms"] else "–", ms(g["conformal"]), ms(g["solver"])] +
+                 ms(g["tips"]) if TIPS in j["timings_ms"] else "–",
+                 ms(g["conformal"]), ms(g["solver"])] +
                 [ms(g["seg"][s]) for s in SEGMENTATION] +
                 [ms(g["total"]), wall_ms(r["wall"]), ms(r["rss"])]), previous
 else:
     # Growth exponent between consecutive rows: log(time ratio) / log(face ratio); 1 is linear.
-    head = ["model", "faces", "zeros", "patches", "conformal ms", "(solver ms)",
-            "segmentation ms", "total ms", "ms per 1k faces", "exponent", "process wall ms",
-            "peak RSS MB", "RSS KB per face"]
+    head = ["model", "faces", "zeros", "patches", "conformal ms", "(solver ms)", "zeros ms",
+            "fans ms", "tracing ms", "cutting ms", "patches ms", "segmentation ms", "total ms",
+            "ms per 1k faces", "exponent", "process wall ms", "peak RSS MB", "RSS KB per face"]
 
     def cells_of(r, previous):
         j, g = r["report"], groups(r["report"]["timings_ms"])
@@ -173,7 +175,8 @@ else:
         if previous and f and previous[0] and f != previous[0] and previous[1] > 0 and total > 0:
             exponent = "%.2f" % (math.log(total / previous[1]) / math.log(f / previous[0]))
         cells = [r["label"], count(f), str(j["zero_count"]), str(j["patch_count"]),
-                 ms(g["conformal"]), ms(g["solver"]), ms(g["seg_total"]), ms(total),
+                 ms(g["conformal"]), ms(g["solver"])] + [ms(g["seg"][s]) for s in SEGMENTATION] + [
+                 ms(g["seg_total"]), ms(total),
                  "%.2f" % (1000 * total / f) if f else "–", exponent, wall_ms(r["wall"]),
                  ms(r["rss"]), "%.2f" % (1024 * r["rss"] / f) if f and r["rss"] else "–"]
         return cells, (f, total)
@@ -203,18 +206,23 @@ pt_main() {
     local corpus="$build/data/meshes"
     local shared
     shared="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/../shared/meshes"
-    [[ -d "$corpus" ]] || { echo "no corpus at $corpus (configure with libcgal-demo installed)" >&2; exit 1; }
+    if [[ ! -d "$corpus" ]]; then
+        echo "no corpus at $corpus (configure with libcgal-demo installed)" >&2
+        exit 1
+    fi
     pt_setup "$build"
     local path file
     for path in "$corpus"/*.off; do pt_run "$(basename "$path" .off)" "$path"; done
     if [[ -d "$shared" ]]; then
-        while IFS= read -r file; do pt_run "shared/$file" "$shared/$file"; done < <(pt_shared_meshes "$shared")
+        while IFS= read -r file; do
+            pt_run "shared/$file" "$shared/$file"
+        done < <(pt_shared_meshes "$shared")
     else
         echo "skip the shared meshes: no $shared" >&2
     fi
-    echo "Stage columns and total: ms from segmentation.json \`timings_ms\`; conformal sums its stages" \
-         "(solver: analyse + factorise + solves); process wall: the whole command (load, stages," \
-         "writing the outputs), 10 ms resolution. Per-model limit ${pt_limit} s."
+    echo "Stage columns and total: ms from segmentation.json \`timings_ms\`; conformal sums" \
+         "its stages (solver: analyse + factorise + solves); process wall: the whole command" \
+         "(load, stages, writing the outputs), 10 ms resolution. Per-model limit ${pt_limit} s."
     echo
     pt_table corpus
 }

@@ -3,15 +3,16 @@
 # subdivision (default eight, genus 2, 634 faces, Loop levels 2 to 6: 10.1k to 2.6M faces; the
 # surface and its zeros stay the same, only the resolution grows), each level under
 # /usr/bin/time -v. Prints a Markdown table: faces, zeros, patches, the conformal stages summed
-# (and their solver part), the segmentation stages summed, their total, ms per 1k faces, the
+# (and their solver part), each segmentation stage and their sum, the total, ms per 1k faces, the
 # growth exponent log(total ratio) / log(faces ratio) against the previous row (1 = linear),
 # the process wall time and peak RSS (also per face).
 # Builds nothing. Needs the `holoflow` and `kernels_bench` targets (the latter writes the
 # levels: `kernels_bench --write-subdivided=PATH,MESH,SCHEME,LEVEL`).
 # Usage: bench/scaling.sh [BUILD_DIR] [--mesh NAME|FILE] [--scheme loop|midpoint]
 #                         [--min-level N] [--max-level N]
-# The default run takes about 5 minutes on 2 cores and peaks at about 5 GB at level 6; lower
-# --max-level to stay smaller. HOLOFLOW_TIME_LIMIT: per-level limit in seconds (default 600).
+# The default run takes about 30 s on a quiet 2-core machine and peaks at 2.3 GB (level 6); each
+# further level takes 4 to 7 times as long and 4 times the memory, so --max-level 7 needs ~10 GB.
+# HOLOFLOW_TIME_LIMIT: per-level limit in seconds (default 600).
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -36,7 +37,10 @@ while [[ $# -gt 0 ]]; do
 done
 
 writer="$build/bench/kernels_bench"
-[[ -x "$writer" ]] || { echo "no $writer: build the kernels_bench target (HOLOFLOW_BUILD_BENCH=ON)" >&2; exit 1; }
+if [[ ! -x "$writer" ]]; then
+    echo "no $writer: build the kernels_bench target (HOLOFLOW_BUILD_BENCH=ON)" >&2
+    exit 1
+fi
 export HOLOFLOW_TIME_LIMIT=${HOLOFLOW_TIME_LIMIT:-600}
 pt_setup "$build"
 
@@ -50,8 +54,9 @@ for ((level = min_level; level <= max_level; ++level)); do
 done
 
 echo "$name after $scheme subdivision, levels $min_level to $max_level. Stage times: ms from" \
-     "segmentation.json \`timings_ms\` (conformal: its stages summed; segmentation: tip slicing," \
-     "zeros, fans, tracing, cutting, patches); exponent: log(total ratio) / log(faces ratio)" \
-     "against the row above (1 = linear); process wall includes loading and writing the outputs."
+     "segmentation.json \`timings_ms\` (conformal: its stages summed; segmentation: tip slicing" \
+     "if any, zeros, fans, tracing, cutting, patches); exponent: log(total ratio) /" \
+     "log(faces ratio) against the row above (1 = linear); process wall includes loading and" \
+     "writing the outputs."
 echo
 pt_table scaling

@@ -147,6 +147,7 @@ nlohmann::json outcome_json(const ModelOutcome& o) {
 void write_model_result(const ModelOutcome& outcome, const nlohmann::json& settings) {
     if (outcome.task.out_dir.empty()) return;
     prepare_output_folder(outcome.task.out_dir);
+    remove_stale_temporaries(outcome.task.out_dir, {"result.json"});
     nlohmann::json j = outcome_json(outcome);
     j["settings"] = settings;
     write_file_atomic(outcome.task.out_dir / "result.json", j.dump(2) + "\n");
@@ -187,6 +188,7 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
 }
 
 void write_batch_summary(const fs::path& out_root, const std::vector<ModelOutcome>& outcomes) {
+    remove_stale_temporaries(out_root, {"summary.json", "summary.csv"});
     nlohmann::json all = nlohmann::json::array();
     for (const ModelOutcome& o : outcomes) all.push_back(outcome_json(o));
     write_file_atomic(out_root / "summary.json", all.dump(2) + "\n");

@@ -16,11 +16,30 @@ void prepare_output_folder(const std::filesystem::path& folder) {
         throw OutputError("output folder '" + folder.string() + "' is not writable");
 }
 
+namespace {
+constexpr const char* kTemporaryTag = ".tmp";  // temporaries are .<name>.tmp<pid>
+}  // namespace
+
+void remove_stale_temporaries(const std::filesystem::path& folder, const std::vector<std::string>& names) {
+    std::error_code ec;
+    for (std::filesystem::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string file = it->path().filename().string();
+        for (const std::string& name : names) {
+            const std::string prefix = "." + name + kTemporaryTag;
+            if (file.size() > prefix.size() && file.compare(0, prefix.size(), prefix) == 0 &&
+                file.find_first_not_of("0123456789", prefix.size()) == std::string::npos) {
+                std::error_code ignored;
+                std::filesystem::remove(it->path(), ignored);
+            }
+        }
+    }
+}
+
 void write_file_atomic(const std::filesystem::path& path,
                        const std::function<void(std::ostream&)>& write) {
     std::string name = ".";
     name += path.filename().string();
-    name += ".tmp";
+    name += kTemporaryTag;
     name += std::to_string(::getpid());
     const std::filesystem::path temporary = path.parent_path() / name;
     {

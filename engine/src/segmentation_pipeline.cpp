@@ -326,6 +326,9 @@ nlohmann::json complex_report(const SegmentationResult& r) {
     return {{"format", "holoflow flow complex 1"}, {"vertices", nodes}, {"edges", edges}, {"faces", faces}};
 }
 
+const std::vector<std::string> kSegmentationFiles = {"segments.ply", "patches.obj", "trajectories.obj",
+                                                     "domains.svg", "complex.json", "segmentation.json"};
+
 nlohmann::json write_segmentation_folder(const std::filesystem::path& folder, const std::string& input_path,
                                          const SegmentationResult& result) {
     nlohmann::json report = segmentation_report(result);

@@ -100,6 +100,7 @@ struct Stages {
         s.run.outcome.patches = static_cast<std::int64_t>(r.patches.info.size());
         if (!s.task.out_dir.empty()) {
             engine::prepare_output_folder(s.task.out_dir);
+            engine::remove_stale_temporaries(s.task.out_dir, engine::kSegmentationFiles);  // a killed run's
             s.run.report = engine::write_segmentation_folder(s.task.out_dir, s.task.path, r);
         } else {
             s.run.report = engine::segmentation_report(r);

@@ -5,6 +5,7 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "holoflow/engine/conformal_pipeline.h"
 
@@ -20,6 +21,10 @@ struct OutputError : std::runtime_error {
 void write_file_atomic(const std::filesystem::path& path,
                        const std::function<void(std::ostream&)>& write);
 void write_file_atomic(const std::filesystem::path& path, const std::string& content);
+
+//! Removes the temporaries write_file_atomic leaves in `folder` when a run is killed while
+//! writing one of `names` (only those: the folder may hold the user's own files).
+void remove_stale_temporaries(const std::filesystem::path& folder, const std::vector<std::string>& names);
 
 //! Creates the folder (and parents) if needed and checks it is writable. \throw OutputError.
 void prepare_output_folder(const std::filesystem::path& folder);

@@ -1,0 +1,223 @@
+// Batch inputs, result markers and summaries, and `holoflow batch` end to end: bad files,
+// resumption after a kill, identical results for any thread count.
+#include "holoflow/engine/batch.h"
+
+#include <csignal>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include "support/test_support.h"
+
+extern char** environ;
+
+namespace holoflow::engine {
+namespace {
+
+namespace fs = std::filesystem;
+using test::corpus;
+using test::run_cli;
+using test::TempDir;
+
+std::string slurp(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// summary.json without what may differ between runs (timings).
+nlohmann::json summary_without_timings(const fs::path& out) {
+    nlohmann::json summary = nlohmann::json::parse(slurp(out / "summary.json"));
+    for (auto& model : summary) model.erase("timings_ms");
+    return summary;
+}
+
+TEST(ExpandInputs, FilesFoldersAndLists) {
+    const TempDir dir;
+    fs::create_directories(dir.path() / "set" / "sub");
+    const std::string b = dir.write("set/b.off", "x"), a = dir.write("set/sub/a.obj", "x");
+    dir.write("set/notes.txt", "not a mesh");
+    const std::string c = dir.write("c.ply", "x");
+    const std::string list = dir.write("list.txt", "# models\n\n  c.ply  \nset/b.off\nmissing.stl\n");
+    const std::vector<std::string> paths = expand_inputs({(dir.path() / "set").string(), list});
+    const std::vector<std::string> expected = {b, a, c, (dir.path() / "missing.stl").string()};
+    EXPECT_EQ(paths, expected) << "folder sorted and recursive, list relative to itself, b kept once";
+    EXPECT_THROW(expand_inputs({(dir.path() / "nowhere").string()}), InvalidInput);
+    const std::string bad_list = dir.write("bad.txt", "notes\n");
+    dir.write("notes", "plain text");
+    EXPECT_THROW(expand_inputs({bad_list}), InvalidInput);
+}
+
+TEST(MakeTasks, UniqueFolderNamesInInputOrder) {
+    const std::vector<ModelTask> tasks = make_tasks({"x/bull.off", "y/bull.obj", "z/cow.off", "w/bull.ply"}, "out");
+    ASSERT_EQ(tasks.size(), 4u);
+    EXPECT_EQ(tasks[0].name, "bull");
+    EXPECT_EQ(tasks[1].name, "bull~2");
+    EXPECT_EQ(tasks[2].name, "cow");
+    EXPECT_EQ(tasks[3].name, "bull~3");
+    for (std::size_t i = 0; i < tasks.size(); ++i) {
+        EXPECT_EQ(tasks[i].id, i);
+        EXPECT_EQ(tasks[i].out_dir, fs::path("out") / tasks[i].name);
+    }
+}
+
+TEST(ModelResult, RoundTripsAndChecksSettings) {
+    const TempDir dir;
+    ModelOutcome o;
+    o.task = make_tasks({"m/eight.off"}, dir.path()).front();
+    o.vertices = 316;
+    o.faces = 634;
+    o.genus = o.working_genus = 2;
+    o.zeros = 2;
+    o.patches = 12;
+    o.timings_ms = {{"load", 1.5}, {"analyse", 0.25}, {"write", 2}};
+    const nlohmann::json settings = {{"mode", "layout"}};
+    write_model_result(o, settings);
+    const std::optional<ModelOutcome> back = finished_model(o.task, settings);
+    ASSERT_TRUE(back.has_value());
+    EXPECT_EQ(outcome_json(*back), outcome_json(o));
+    EXPECT_TRUE(back->reused);
+    EXPECT_FALSE(finished_model(o.task, {{"mode", "vertical"}}).has_value()) << "other settings: recompute";
+    o.status = Status::failure("solver_failure", "factorise", "not positive definite", kExitSolverFailure);
+    write_model_result(o, settings);
+    EXPECT_FALSE(finished_model(o.task, settings).has_value()) << "failed models are retried";
+    std::ofstream(o.task.out_dir / "result.json") << "{ truncated";
+    EXPECT_FALSE(finished_model(o.task, settings).has_value());
+}
+
+TEST(BatchSummary, CsvHasOneRowPerModelAndQuotesErrors) {
+    const TempDir dir;
+    std::vector<ModelTask> tasks = make_tasks({"a.off", "b.off"}, dir.path());
+    std::vector<ModelOutcome> outcomes(2);
+    outcomes[0].task = tasks[0];
+    outcomes[0].timings_ms = {{"load", 1}, {"zeros", 2}};
+    outcomes[1].task = tasks[1];
+    outcomes[1].status = Status::failure("parse_error", "read", "line 3: bad token \"x\", expected a number", 16);
+    write_batch_summary(dir.path(), outcomes);
+    const nlohmann::json summary = nlohmann::json::parse(slurp(dir.path() / "summary.json"));
+    ASSERT_EQ(summary.size(), 2u);
+    EXPECT_EQ(summary[0]["status"], "ok");
+    EXPECT_EQ(summary[1]["error"]["kind"], "parse_error");
+    EXPECT_DOUBLE_EQ(summary[0]["timings_ms"]["total"].get<double>(), 3.0);
+    std::istringstream csv(slurp(dir.path() / "summary.csv"));
+    std::string header, row0, row1, extra;
+    std::getline(csv, header);
+    std::getline(csv, row0);
+    std::getline(csv, row1);
+    EXPECT_FALSE(std::getline(csv, extra));
+    EXPECT_NE(header.find("ms_zeros"), std::string::npos);
+    EXPECT_NE(row1.find("\"line 3: bad token \"\"x\"\", expected a number\""), std::string::npos) << row1;
+}
+
+// A list of real models plus broken files.
+std::string write_batch_list(const TempDir& dir) {
+    dir.write("broken.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 nan 0\n3 0 1 2\n");
+    std::string list;
+    for (const char* m : {"eight", "knot", "head", "elephant", "bull", "femur"}) list += corpus(std::string(m) + ".off") + "\n";
+    list += "broken.off\nnot-there.off\n";
+    return dir.write("models.txt", list);
+}
+
+TEST(BatchCommand, BadFilesFailAloneAndThreadCountsAgree) {
+    const TempDir dir;
+    const std::string list = write_batch_list(dir);
+    const fs::path one = dir.path() / "one", two = dir.path() / "two";
+    const test::CommandResult r1 = run_cli("batch '" + list + "' -o '" + one.string() + "' --threads 1");
+    const test::CommandResult r2 = run_cli("batch '" + list + "' -o '" + two.string() + "' --threads 2");
+    EXPECT_EQ(r1.status, kExitBatchFailures) << r1.err;
+    EXPECT_EQ(r2.status, kExitBatchFailures) << r2.err;
+    EXPECT_NE(r1.out.find("8 models: 6 ok, 2 failed"), std::string::npos) << r1.out;
+    EXPECT_NE(r1.err.find("progress: 8/8 done, 2 failed"), std::string::npos) << r1.err;
+    EXPECT_EQ(summary_without_timings(one), summary_without_timings(two));
+    const nlohmann::json summary = summary_without_timings(one);
+    EXPECT_EQ(summary[6]["error"]["kind"], "non_finite_coordinate");
+    EXPECT_EQ(summary[7]["error"]["kind"], "file_not_found");
+    for (const char* m : {"eight", "knot", "head", "elephant", "bull", "femur"})
+        for (const char* file : {"segments.ply", "complex.json", "patches.obj"})
+            EXPECT_EQ(slurp(one / m / file), slurp(two / m / file)) << m << "/" << file;
+    // The same model alone through `segment` writes the same files.
+    const fs::path alone = dir.path() / "alone";
+    ASSERT_EQ(run_cli("segment '" + corpus("head.off") + "' -o '" + alone.string() + "'").status, 0);
+    EXPECT_EQ(slurp(alone / "segments.ply"), slurp(one / "head" / "segments.ply"));
+}
+
+TEST(BatchCommand, KilledRunResumesToTheSameSummary) {
+    const TempDir dir;
+    // Enough work that the kill lands mid-run: copies of one mid-sized model plus the list.
+    std::string list = slurp(write_batch_list(dir));
+    for (int i = 0; i < 6; ++i) {
+        fs::copy_file(corpus("turbine.off"), dir.path() / ("turbine" + std::to_string(i) + ".off"));
+        list += "turbine" + std::to_string(i) + ".off\n";
+    }
+    const std::string list_path = dir.write("long.txt", list);
+    const fs::path killed = dir.path() / "killed", whole = dir.path() / "whole";
+
+    std::vector<std::string> args = {HOLOFLOW_CLI, "batch", list_path, "-o", killed.string(), "--threads", "1"};
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+    pid_t pid = 0;
+    ASSERT_EQ(posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ), 0);
+    posix_spawn_file_actions_destroy(&actions);
+    const auto finished_models = [&] {
+        std::size_t n = 0;
+        std::error_code ec;
+        for (fs::directory_iterator it(killed, ec), end; !ec && it != end; it.increment(ec))
+            n += fs::exists(it->path() / "result.json");
+        return n;
+    };
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    while (finished_models() < 2 && std::chrono::steady_clock::now() < give_up)
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "the batch finished before it could be killed";
+    EXPECT_FALSE(fs::exists(killed / "summary.json"));
+    const std::size_t before = finished_models();
+    EXPECT_LT(before, 14u);
+
+    const test::CommandResult resumed = run_cli("batch '" + list_path + "' -o '" + killed.string() + "' --threads 2");
+    EXPECT_EQ(resumed.status, kExitBatchFailures) << resumed.err;
+    EXPECT_NE(resumed.out.find("reused from an earlier run"), std::string::npos);
+    const test::CommandResult uninterrupted = run_cli("batch '" + list_path + "' -o '" + whole.string() + "'");
+    EXPECT_EQ(uninterrupted.status, kExitBatchFailures) << uninterrupted.err;
+    EXPECT_EQ(summary_without_timings(killed), summary_without_timings(whole));
+    // No temporary survives the resumed run.
+    for (const auto& entry : fs::recursive_directory_iterator(killed))
+        EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << entry.path();
+    // --force recomputes everything.
+    const test::CommandResult forced = run_cli("batch '" + list_path + "' -o '" + killed.string() + "' --force");
+    EXPECT_NE(forced.out.find(", 0 reused"), std::string::npos) << forced.out;
+}
+
+TEST(BatchCommand, RefusesMissingInputsAndUnwritableOutput) {
+    const TempDir dir;
+    const test::CommandResult missing = run_cli("batch '" + (dir.path() / "none").string() + "' -o '" +
+                                                (dir.path() / "out").string() + "'");
+    EXPECT_EQ(missing.status, kExitInvalidInput);
+    EXPECT_NE(missing.err.find("does not exist"), std::string::npos);
+    const std::string file = dir.write("file", "x");
+    const test::CommandResult unwritable = run_cli("batch '" + corpus("eight.off") + "' -o '" + file + "/sub'");
+    EXPECT_EQ(unwritable.status, kExitOutputError) << unwritable.err;
+}
+
+TEST(BatchCommand, WritesTheGraphAsDot) {
+    const TempDir dir;
+    const std::string dot = (dir.path() / "graph.dot").string();
+    const test::CommandResult r = run_cli("batch '" + corpus("eight.off") + "' -o '" + (dir.path() / "o").string() +
+                                          "' --dot '" + dot + "'");
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(slurp(dot).rfind("digraph", 0), 0u);
+}
+
+}  // namespace
+}  // namespace holoflow::engine

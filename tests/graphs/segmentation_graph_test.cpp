@@ -1,0 +1,196 @@
+// The segmentation flow graph against its serial twin, failures inside a batch, time limits,
+// the factorization cache on a pose collection, and the DOT diagram.
+#include "holoflow/graphs/segmentation_graph.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include "holoflow/engine/output.h"
+#include "support/test_support.h"
+
+namespace holoflow::graphs {
+namespace {
+
+using test::corpus;
+using test::TempDir;
+
+std::string slurp(const std::filesystem::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Everything a model writes, timings left out (they are the only thing allowed to differ).
+std::string fingerprint(const ModelRun& run) {
+    nlohmann::json report = run.report;
+    if (report.is_object()) report.erase("timings_ms");
+    std::ostringstream s;
+    s << run.outcome.status.kind << '|' << run.outcome.status.stage << '|' << run.outcome.status.message << '|'
+      << run.outcome.vertices << '|' << run.outcome.faces << '|' << run.outcome.genus << '|'
+      << run.outcome.working_genus << '|' << run.outcome.zeros << '|' << run.outcome.patches << '|'
+      << report.dump();
+    if (!run.outcome.task.out_dir.empty())
+        for (const char* file : {"segments.ply", "patches.obj", "trajectories.obj", "domains.svg", "complex.json"})
+            s << '|' << slurp(run.outcome.task.out_dir / file);
+    return s.str();
+}
+
+std::vector<engine::ModelTask> tasks_for(const std::vector<std::string>& paths, const std::filesystem::path& out) {
+    return engine::make_tasks(paths, out);
+}
+
+// A mixed collection: closed of genus 1-3, open (double cover), genus 0 (tips), and broken files.
+std::vector<std::string> mixed_collection(const TempDir& dir) {
+    return {corpus("eight.off"),
+            dir.write("truncated.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n"),
+            corpus("knot.off"),
+            corpus("head.off"),
+            dir.write("nonmanifold.off",
+                      "OFF\n5 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n0 -1 0\n3 0 1 2\n3 0 1 3\n3 0 1 4\n"),
+            corpus("elephant.off"),
+            (dir.path() / "missing.off").string(),
+            corpus("bull.off")};
+}
+
+class ThreadSweep : public ::testing::TestWithParam<int> {};
+
+TEST_P(ThreadSweep, GraphMatchesSerialTwin) {
+    const TempDir dir;
+    const std::vector<std::string> paths = mixed_collection(dir);
+    SegmentationGraphOptions options;
+    options.max_in_flight = 3;
+    std::vector<ModelRun> serial, graph;
+    {
+        engine::FactorizationCache cache;
+        serial = SegmentationGraph(options, &cache).run_serial(tasks_for(paths, dir.path() / "serial"));
+    }
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, GetParam());
+        engine::FactorizationCache cache;
+        std::vector<int> seen;
+        graph = SegmentationGraph(options, &cache).run(tasks_for(paths, dir.path() / "graph"),
+                                                       [&](ModelRun& run) { seen.push_back(static_cast<int>(run.outcome.task.id)); });
+        EXPECT_EQ(seen.size(), paths.size()) << "one callback per model";
+    }
+    ASSERT_EQ(serial.size(), paths.size());
+    ASSERT_EQ(graph.size(), paths.size());
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+        SCOPED_TRACE(paths[i]);
+        EXPECT_EQ(graph[i].outcome.task.id, i);
+        EXPECT_EQ(fingerprint(graph[i]), fingerprint(serial[i]));
+    }
+    // The broken files failed with the kind naming their problem; the rest succeeded.
+    EXPECT_EQ(graph[1].outcome.status.kind, "header_mismatch");  // 4 vertices announced, 2 given
+    EXPECT_EQ(graph[4].outcome.status.kind, "non_manifold_edge");
+    EXPECT_EQ(graph[6].outcome.status.kind, "file_not_found");
+    for (std::size_t i : {0u, 2u, 3u, 5u, 7u}) {
+        EXPECT_TRUE(graph[i].outcome.status.ok()) << paths[i] << ": " << graph[i].outcome.status.message;
+        EXPECT_GT(graph[i].outcome.patches, 0);
+    }
+    EXPECT_EQ(graph[0].outcome.zeros, 2);  // eight: 2g - 2
+    EXPECT_EQ(graph[5].outcome.zeros, 4);  // elephant
+}
+
+INSTANTIATE_TEST_SUITE_P(Threads, ThreadSweep, ::testing::Values(1, 2, 8),
+                         [](const auto& info) { return "threads_" + std::to_string(info.param); });
+
+TEST(SegmentationGraph, BatchModelsMatchSingleModelRuns) {
+    const TempDir dir;
+    const std::vector<std::string> paths = mixed_collection(dir);
+    const SegmentationGraph graph(SegmentationGraphOptions{});
+    const std::vector<ModelRun> batch = graph.run(tasks_for(paths, dir.path() / "batch"));
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+        SCOPED_TRACE(paths[i]);
+        engine::ModelTask alone = tasks_for({paths[i]}, dir.path() / ("alone" + std::to_string(i))).front();
+        const std::vector<ModelRun> single = graph.run({alone});
+        ASSERT_EQ(single.size(), 1u);
+        // Same files and report; only the folder differs.
+        ModelRun a = batch[i], b = single[0];
+        EXPECT_EQ(a.outcome.status.kind, b.outcome.status.kind);
+        a.outcome.task = b.outcome.task = {};
+        std::string fa = fingerprint(a), fb = fingerprint(b);
+        if (a.outcome.status.ok()) {
+            for (const char* file : {"segments.ply", "patches.obj", "complex.json"})
+                EXPECT_EQ(slurp(batch[i].outcome.task.out_dir / file), slurp(single[0].outcome.task.out_dir / file));
+        }
+        EXPECT_EQ(fa, fb);
+    }
+}
+
+TEST(SegmentationGraph, TimeLimitFailsTheModelNotTheBatch) {
+    const TempDir dir;
+    SegmentationGraphOptions options;
+    options.timeout = std::chrono::milliseconds(1);
+    // A mesh large enough that its stages take more than a millisecond in total.
+    const std::vector<ModelRun> runs =
+        SegmentationGraph(options).run(tasks_for({corpus("turbine.off"), corpus("elephant.off")}, dir.path()));
+    ASSERT_EQ(runs.size(), 2u);
+    for (const ModelRun& run : runs) {
+        EXPECT_EQ(run.outcome.status.kind, "timeout");
+        EXPECT_EQ(run.outcome.status.exit_code, engine::kExitTimeout);
+        EXPECT_FALSE(run.outcome.status.stage.empty());
+        EXPECT_FALSE(std::filesystem::exists(run.outcome.task.out_dir / "segmentation.json"));
+    }
+}
+
+TEST(SegmentationGraph, SolverMemoryLimitIsAResourceLimitFailure) {
+    const TempDir dir;
+    SegmentationGraphOptions options;
+    options.segment.conformal.max_solver_bytes = 1024;  // far below any factor
+    const std::vector<ModelRun> runs = SegmentationGraph(options).run(tasks_for({corpus("eight.off")}, dir.path()));
+    EXPECT_EQ(runs[0].outcome.status.kind, "resource_limit");
+    EXPECT_EQ(runs[0].outcome.status.stage, "factorise");
+    EXPECT_NE(runs[0].outcome.status.message.find("MiB"), std::string::npos);
+}
+
+// Poses: the same triangles with smoothly moved vertices. With the extrinsic Laplacian every
+// pose has the input's pattern, so all but the first reuse its analysis, with the same bits.
+TEST(SegmentationGraph, PoseCollectionReusesTheSymbolicAnalysis) {
+    const TempDir dir;
+    const auto mesh = test::corpus_mesh("elephant");
+    std::vector<std::string> paths;
+    for (int pose = 0; pose < 4; ++pose) {
+        MeshView moved = *mesh;
+        for (Index v = 0; v < moved.n_vertices(); ++v) {
+            const double z = moved.V(v, 2);
+            moved.V(v, 0) += 0.02 * pose * std::sin(3 * z);
+            moved.V(v, 1) += 0.02 * pose * std::cos(2 * z);
+        }
+        const std::filesystem::path file = dir.path() / ("pose" + std::to_string(pose) + ".off");
+        engine::write_file_atomic(file, [&](std::ostream& out) { engine::write_off(out, moved); });
+        paths.push_back(file.string());
+    }
+    SegmentationGraphOptions options;
+    options.segment.conformal.laplacian = engine::LaplacianKind::Extrinsic;
+    engine::FactorizationCache cache;
+    const std::vector<ModelRun> cached = SegmentationGraph(options, &cache).run_serial(tasks_for(paths, dir.path() / "a"));
+    EXPECT_EQ(cache.stats().misses, 1u);
+    EXPECT_EQ(cache.stats().hits, 3u);
+    const std::vector<ModelRun> fresh = SegmentationGraph(options).run_serial(tasks_for(paths, dir.path() / "b"));
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+        ASSERT_TRUE(cached[i].outcome.status.ok()) << cached[i].outcome.status.message;
+        nlohmann::json a = cached[i].report, b = fresh[i].report;
+        a.erase("timings_ms");
+        b.erase("timings_ms");
+        EXPECT_EQ(a, b) << paths[i];
+    }
+}
+
+TEST(SegmentationGraph, PrintsItselfAsDot) {
+    std::ostringstream dot;
+    SegmentationGraph(SegmentationGraphOptions{}).to_dot(dot);
+    const std::string text = dot.str();
+    EXPECT_EQ(text.rfind("digraph", 0), 0u);
+    for (const char* node : {"read", "validate", "factorise", "split_solves", "solve", "trace", "write", "collect"})
+        EXPECT_NE(text.find(std::string("label=\"") + node + "\""), std::string::npos) << node;
+    EXPECT_NE(text.find("decrement"), std::string::npos);
+    EXPECT_EQ(std::count(text.begin(), text.end(), '{'), std::count(text.begin(), text.end(), '}'));
+}
+
+}  // namespace
+}  // namespace holoflow::graphs
