@@ -27,10 +27,10 @@ max_level=6
 if [[ $# -gt 0 && $1 != --* ]]; then build=$1; shift; fi
 while [[ $# -gt 0 ]]; do
     case $1 in
-        --mesh) mesh=$2; shift 2 ;;
-        --scheme) scheme=$2; shift 2 ;;
-        --min-level) min_level=$2; shift 2 ;;
-        --max-level) max_level=$2; shift 2 ;;
+        --mesh) mesh=${2:?--mesh needs a value}; shift 2 ;;
+        --scheme) scheme=${2:?--scheme needs a value}; shift 2 ;;
+        --min-level) min_level=${2:?--min-level needs a value}; shift 2 ;;
+        --max-level) max_level=${2:?--max-level needs a value}; shift 2 ;;
         *) echo "usage: $0 [BUILD_DIR] [--mesh NAME|FILE] [--scheme loop|midpoint]" \
                 "[--min-level N] [--max-level N]" >&2; exit 2 ;;
     esac

@@ -3,10 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <cstdio>
-#include <cstdlib>
-static const bool kDbg = std::getenv("HF_DBG") != nullptr;
-#define DBG(...) do { if (kDbg) std::fprintf(stderr, __VA_ARGS__); } while (0)
 
 #include <Eigen/Geometry>
 
@@ -68,8 +64,7 @@ class FanBuilder {
         std::sort(seeds.begin(), seeds.end());
         seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
         for (int grown = 0; grown <= kMaxGrowth; ++grown) {
-            DBG("region order %d grown %d seeds %zu: ", region.order, grown, seeds.size());
-            if (try_region(region, seeds, fan)) { DBG("ok\n"); return true; }
+            if (try_region(region, seeds, fan)) return true;
             // Grow by one ring: every vertex of the current star becomes a seed.
             std::vector<Index> next;
             for (Index v : seeds)
@@ -94,7 +89,7 @@ class FanBuilder {
         std::sort(fan.region_faces.begin(), fan.region_faces.end());
         fan.region_faces.erase(std::unique(fan.region_faces.begin(), fan.region_faces.end()), fan.region_faces.end());
         for (Index f : fan.region_faces)
-            if (used_[f]) { DBG("overlap\n"); return false; } // overlaps an earlier fan
+            if (used_[f]) return false;  // overlaps an earlier fan
         for (Index f : fan.region_faces) in_region_[f] = 1;
         const bool ok = develop_and_fan(region, fan);
         for (Index f : fan.region_faces) in_region_[f] = 0;
@@ -120,7 +115,7 @@ class FanBuilder {
                     ++vertices;
                 } else if (std::abs(image_[mesh_.head(h)] - expected) >
                            1e-8 * (std::abs(expected) + std::abs(form_along(mesh_, tau_, h)))) {
-                    { DBG("not simply connected\n"); return false; }
+                    return false;  // the star is not simply connected (wraps around a handle)
                 }
             }
             for (int k = 0; k < 3; ++k) {
@@ -141,13 +136,13 @@ class FanBuilder {
                 else ++interior_halfedges;
             }
         const Index edges = interior_halfedges / 2 + static_cast<Index>(inner.size() + outer.size());
-        if (vertices - edges + static_cast<Index>(fan.region_faces.size()) != 1) { DBG("not a disk chi %d\n", vertices - edges + (int)fan.region_faces.size()); return false; }
+        if (vertices - edges + static_cast<Index>(fan.region_faces.size()) != 1) return false;  // not a disk
         if (inner.empty()) return false;
 
         // Chain the inner border: each tail must start exactly one inner halfedge.
         std::sort(inner.begin(), inner.end(), [&](Index a, Index b) { return mesh_.tail(a) < mesh_.tail(b); });
         for (std::size_t i = 1; i < inner.size(); ++i)
-            if (mesh_.tail(inner[i]) == mesh_.tail(inner[i - 1])) { DBG("pinched\n"); return false; }
+            if (mesh_.tail(inner[i]) == mesh_.tail(inner[i - 1])) return false;  // pinched
         auto starting_at = [&](Index v) -> Index {
             auto it = std::lower_bound(inner.begin(), inner.end(), v,
                                        [&](Index h, Index x) { return mesh_.tail(h) < x; });
@@ -213,7 +208,6 @@ class FanBuilder {
                 candidates.push_back({-1, p, x});
             }
         }
-        DBG("faces %zu chain %zu open %d cands %zu ", fan.region_faces.size(), fan.chain.size(), (int)fan.open, candidates.size());
         for (const Candidate& c : candidates) {
             if (!fan_is_valid(region, fan, c)) continue;
             fan.centre = c.vertex;
@@ -223,13 +217,6 @@ class FanBuilder {
             fan.last_head_image = image_[mesh_.head(fan.chain.back())];
             return true;
         }
-        if (!candidates.empty()) { const Candidate& c = candidates[0]; int bad = 0, deg = 0; double turning = 0;
-            for (Index h : fan.chain) { const Complex a = image_[mesh_.tail(h)] - c.image, b = image_[mesh_.head(h)] - c.image;
-                bad += !(cross(a, b) > kOrientationTol * (std::norm(a) + std::norm(b))); turning += std::atan2(cross(a, b), (std::conj(a) * b).real());
-                const Eigen::RowVector3d e1 = mesh_.V.row(mesh_.tail(h)) - c.position, e2 = mesh_.V.row(mesh_.head(h)) - c.position;
-                deg += !(e1.cross(e2).norm() > 1e-12 * (e1.squaredNorm() + e2.squaredNorm())); }
-            DBG("first cand v %d: bad %d deg3d %d turns %.3f (want %d)", c.vertex, bad, deg, turning / (fan.open ? std::numbers::pi : 2 * std::numbers::pi), region.order + 1); }
-        DBG("\n");
         return false;
     }
 
