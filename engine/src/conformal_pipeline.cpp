@@ -39,16 +39,16 @@ ConformalWork prepare(std::shared_ptr<const MeshView> input_ptr, ConformalOption
                          " components; use --component largest");
     if (topology.boundary_loops > 0) {
         HOLOFLOW_REQUIRE(topology.genus > 0 || topology.boundary_loops > 1,
-                         "a topological disk has no holomorphic 1-form (tip slicing comes with "
-                         "segmentation)");
+                         "a topological disk has no holomorphic 1-form (`segment` slices holes at its "
+                         "tips first)");
         r.cover = std::make_shared<const kernels::DoubleCover>(kernels::double_cover(input));
         r.surface = std::shared_ptr<const MeshView>(r.cover, &r.cover->mesh);
         r.double_covered = true;
         clock.lap("double_cover");
     } else {
         HOLOFLOW_REQUIRE(topology.genus > 0,
-                         "a closed genus-0 surface has no holomorphic 1-form (tip slicing "
-                         "comes with segmentation)");
+                         "a closed genus-0 surface has no holomorphic 1-form (`segment` "
+                         "slices holes at its tips first)");
         r.surface = work.input;
     }
     return work;

@@ -5,6 +5,7 @@
 
 #include "holoflow/engine/output.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/tips.h"
 #include "holoflow/kernels/topology.h"
 
@@ -71,6 +72,38 @@ std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r) {
     return regions;
 }
 
+// The sliced surface needs two boundary loops at least (the double cover then has genus >= 1).
+// A mesh too coarse for that (a cube: holes that swallow whole faces or merge) is refined by
+// midpoint subdivision, which keeps the shape and the vertex ids, and sliced again.
+MeshView slice_at_tips(const MeshView& input, const kernels::Topology& topology, const SegmentOptions& options,
+                       SegmentationResult& r) {
+    constexpr int kMaxRefinements = 4;
+    constexpr Index kMaxRefinedFaces = 200000;  // refining is for coarse meshes only
+    std::shared_ptr<const MeshView> mesh(std::shared_ptr<const MeshView>{}, &input);
+    for (int refinement = 0;; ++refinement) {
+        try {
+            std::vector<Index> tips = options.tips;
+            if (tips.empty()) {
+                kernels::TipOptions tip_options;
+                tip_options.max_tips = std::max(2, options.max_tips);
+                tip_options.min_tips = topology.boundary_loops == 0 ? 2 : 1;
+                tips = kernels::find_tips(*mesh, tip_options);
+            }
+            kernels::SlicedMesh sliced = kernels::slice_tips(*mesh, tips, options.hole_size);
+            const kernels::Topology cut = kernels::compute_topology(sliced.mesh);
+            HOLOFLOW_REQUIRE(cut.components == 1 && cut.boundary_loops >= 2,
+                             "slicing the tips left " + std::to_string(cut.boundary_loops) +
+                                 " boundary loop(s); a genus-0 surface needs two to carry a holomorphic 1-form");
+            r.tips = sliced.tips;
+            r.tip_refinements = refinement;
+            return std::move(sliced.mesh);
+        } catch (const InvalidInput&) {
+            if (refinement == kMaxRefinements || 4 * mesh->n_faces() > kMaxRefinedFaces) throw;
+        }
+        mesh = std::make_shared<const MeshView>(kernels::subdivide_midpoint(*mesh));
+    }
+}
+
 }  // namespace
 
 namespace segment_stage {
@@ -91,16 +124,7 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
                                                    " components; use --component largest");
     // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1).
     if (topology.genus == 0 && topology.boundary_loops <= 1) {
-        std::vector<Index> tips = work.options.tips;
-        if (tips.empty()) {
-            kernels::TipOptions tip_options;
-            tip_options.max_tips = std::max(2, work.options.max_tips);
-            tip_options.min_tips = topology.boundary_loops == 0 ? 2 : 1;
-            tips = kernels::find_tips(input, tip_options);
-        }
-        kernels::SlicedMesh sliced = kernels::slice_tips(input, tips, work.options.hole_size);
-        r.tips = sliced.tips;
-        r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
+        r.traced_input = std::make_shared<const MeshView>(slice_at_tips(input, topology, work.options, r));
         clock.lap("tip_slicing");
     } else {
         HOLOFLOW_REQUIRE(work.options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
@@ -274,6 +298,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"double_covered", r.conformal.double_covered},
         {"mode", r.mode == SegmentMode::Layout ? "layout" : "vertical"},
         {"tips", r.tips},
+        {"tip_refinements", r.tip_refinements},
         {"zero_count", z.total_order},
         {"zero_index_total", z.total_index},
         {"zeros", zeros},

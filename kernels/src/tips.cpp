@@ -530,7 +530,7 @@ SlicedMesh slice_tips(const MeshView& mesh, std::span<const Index> tips, double 
         for (Index f : faces) in_hole[f] = 0;
     }
     HOLOFLOW_REQUIRE(!out.tips.empty(), "no tip could be sliced: every hole reaches the mesh "
-                                        "boundary (use a smaller hole_radius)");
+                                        "boundary (use a smaller hole size, --hole-size)");
 
     // Remaining faces and the vertices they use, both in input order.
     std::vector<Index> new_vertex(n_v, -1);

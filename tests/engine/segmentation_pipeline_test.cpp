@@ -127,6 +127,27 @@ TEST(Segmentation, GenusZeroIsSlicedAtItsTips) {
     EXPECT_EQ(unfinished(r), 0);
 }
 
+// A cube or a single triangle is too coarse for holes at its tips: it is refined (midpoint
+// subdivision, same shape) until slicing leaves two boundary loops, then segments as usual.
+TEST(Segmentation, CoarseGenusZeroIsRefinedBeforeSlicing) {
+    for (const char* name : {"cube", "tetrahedron", "triangle", "open_cube"}) {
+        SCOPED_TRACE(name);
+        const auto mesh = test::corpus_mesh(name);
+        const SegmentationResult r = segment(*mesh);
+        EXPECT_GT(r.tip_refinements, 0);
+        EXPECT_EQ(r.traced_input->n_faces() > mesh->n_faces(), true);
+        EXPECT_GE(r.conformal.basis.genus, 1);
+        EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+        EXPECT_GE(r.patches.info.size(), 1u);
+        EXPECT_EQ(unfinished(r), 0);
+    }
+    // Given tips are input vertex ids, still valid on the refined mesh (it keeps them).
+    SegmentOptions options;
+    options.tips = {0, 6};
+    const SegmentationResult r = segment(*test::corpus_mesh("cube"), options);
+    EXPECT_EQ(r.tips, (std::vector<Index>{0, 6}));
+}
+
 TEST(Segmentation, SameResultForAnyThreadCount) {
     const auto mesh = test::corpus_mesh("elephant");
     const auto run = [&](int threads) {

@@ -37,7 +37,10 @@ struct SegmentationResult {
     //! The open or closed surface the trajectories live on: the input, or the input with tips
     //! sliced (closed genus 0 / disks); open ones are traced on their double cover's first copy.
     std::shared_ptr<const MeshView> traced_input;
-    std::vector<Index> tips;                  //!< input vertex ids sliced
+    std::vector<Index> tips;                  //!< vertex ids sliced (of the refined input, see below)
+    //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
+    //! input's vertex ids, so tips below its vertex count are input vertices.
+    int tip_refinements = 0;
     ConformalResult conformal;
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface
     kernels::RegularisedForm regular;         //!< traced_input with zero fans
