@@ -11,15 +11,21 @@
 #include "holoflow/kernels/errors.h"
 
 extern "C" void openblas_set_num_threads(int);
+extern "C" void omp_set_max_active_levels(int);  // libgomp, which Debian's CHOLMOD is built with
 
 namespace holoflow::kernels {
 namespace {
 
 //! One BLAS thread: callers parallelise over meshes and right-hand sides, and a single thread
-//! keeps every BLAS reduction in a fixed order (same bits on any machine load).
+//! keeps every BLAS reduction in a fixed order (same bits on any machine load). CHOLMOD's own
+//! OpenMP loops (up to 4 threads per factorization, compiled in) would stack threads on busy
+//! oneTBB workers: no active OpenMP level makes every parallel region run on its caller.
 void pin_blas_threads() {
     static std::once_flag once;
-    std::call_once(once, [] { openblas_set_num_threads(1); });
+    std::call_once(once, [] {
+        openblas_set_num_threads(1);
+        omp_set_max_active_levels(0);
+    });
 }
 
 //! A configured cholmod_common. Not thread-safe, so each call builds its own: start/finish only
