@@ -6,36 +6,21 @@
 //                                  pipeline factors (intrinsic Delaunay cotan weights, assembled
 //                                  outside the timing loop)
 // The console output ends with the ratio conformal / bare CHOLMOD per level.
-//
-// `conformal_bench --write-loop=PATH,LEVEL` writes turbine after LEVEL Loop steps to PATH (OFF)
-// and exits, for bench/conformal_table.sh; no benchmark runs then.
 #include <benchmark/benchmark.h>
 
-#include <charconv>
-#include <cstdio>
-#include <filesystem>
-#include <iostream>
 #include <map>
 #include <memory>
 #include <set>
-#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include <Eigen/Sparse>
 #include <oneapi/tbb/version.h>
 #include <unistd.h>
 
+#include "bench_support.h"
 #include "holoflow/engine/conformal_pipeline.h"
-#include "holoflow/engine/mesh_loader.h"
-#include "holoflow/engine/output.h"
 #include "holoflow/kernels/cholesky.h"
-#include "holoflow/kernels/cotan_laplacian.h"
-#include "holoflow/kernels/harmonic.h"
-#include "holoflow/kernels/homology.h"
-#include "holoflow/kernels/intrinsic_delaunay.h"
-#include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/topology.h"
 
 namespace {
@@ -44,25 +29,10 @@ using holoflow::Index;
 using holoflow::MeshView;
 namespace engine = holoflow::engine;
 namespace kernels = holoflow::kernels;
+using holoflow::bench::turbine_loop;
 
 constexpr double kResidualTol = 1e-8;  // relative; a direct solve reaches ~1e-12 on these meshes
 constexpr int kMaxLevel = 2;
-
-// Turbine after `level` Loop steps, made once per level and shared by both benchmarks.
-std::shared_ptr<const MeshView> turbine_loop(int level) {
-    static std::map<int, std::shared_ptr<const MeshView>> cache;
-    if (auto it = cache.find(level); it != cache.end()) return it->second;
-    const std::string path = std::string(HOLOFLOW_CORPUS_DIR) + "/turbine.off";
-    if (!std::filesystem::exists(path)) throw std::runtime_error("corpus mesh missing: " + path);
-    std::shared_ptr<const MeshView> mesh = engine::load_mesh(path).mesh;
-    for (int l = 0; l < level; ++l)
-        mesh = std::make_shared<const MeshView>(kernels::subdivide_loop(*mesh));
-    return cache.emplace(level, mesh).first->second;
-}
-
-void write_off(const MeshView& mesh, const std::string& path) {
-    engine::write_file_atomic(path, [&](std::ostream& out) { engine::write_off(out, mesh); });
-}
 
 void BM_engine_conformal(benchmark::State& state) {
     std::shared_ptr<const MeshView> mesh;
@@ -92,49 +62,21 @@ void BM_engine_conformal(benchmark::State& state) {
     state.SetItemsProcessed(state.iterations() * mesh->n_faces());
 }
 
-// The pipeline's Laplacian and right-hand sides, built outside the timing loop.
-struct SolverInput {
-    kernels::LaplacianMatrix L;
-    Eigen::MatrixXd rhs;
-};
-
-SolverInput pipeline_laplacian(const MeshView& mesh) {
-    const kernels::HomologyBasis homology = kernels::compute_homology_basis(mesh);
-    const kernels::IntrinsicTriangulation intrinsic =
-        kernels::intrinsic_delaunay(mesh, homology.closed_forms);
-    const std::vector<double> w = kernels::cotan_weights_from_lengths(
-        intrinsic.mesh.halfedge_edge, intrinsic.edge_length, intrinsic.mesh.n_edges());
-    SolverInput in;
-    in.L = kernels::assemble_laplacian(mesh.n_vertices(), intrinsic.mesh.E, w, {homology.root});
-    in.rhs = -kernels::codifferential(mesh.n_vertices(), intrinsic.mesh.E, w, intrinsic.forms);
-    in.rhs.row(homology.root).setZero();
-    return in;
-}
-
-// max |L x - b| / max |b| with L expanded from its stored upper triangle.
-double relative_residual(const kernels::LaplacianMatrix& L, const Eigen::MatrixXd& x,
-                         const Eigen::MatrixXd& b) {
-    const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::ColMajor, Index>> upper(
-        L.n, L.n, L.nonzeros(), L.col_start.data(), L.row.data(), L.value.data());
-    const Eigen::MatrixXd r = upper.selfadjointView<Eigen::Upper>() * x - b;
-    return r.cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff();
-}
-
 void BM_kernel_bare_cholmod(benchmark::State& state) {
-    SolverInput in;
+    holoflow::bench::PipelineLaplacian in;
     Index faces = 0;
     try {
         const auto mesh = turbine_loop(static_cast<int>(state.range(0)));
         faces = mesh->n_faces();
-        in = pipeline_laplacian(*mesh);
+        in = holoflow::bench::pipeline_laplacian(mesh);
     } catch (const std::exception& e) {
         state.SkipWithError(e.what());
         return;
     }
+    const kernels::LaplacianMatrix& L = in.work.laplacian;
     {  // warm-up and validation
-        const auto factor =
-            kernels::CholeskyFactor::factorize(kernels::CholeskySymbolic::analyse(in.L), in.L);
-        const double residual = relative_residual(in.L, factor->solve(in.rhs), in.rhs);
+        const auto factor = kernels::CholeskyFactor::factorize(kernels::CholeskySymbolic::analyse(L), L);
+        const double residual = holoflow::bench::relative_residual(L, factor->solve(in.rhs), in.rhs);
         if (!(residual < kResidualTol)) {
             state.SkipWithError(("residual " + std::to_string(residual) + " too large").c_str());
             return;
@@ -142,8 +84,8 @@ void BM_kernel_bare_cholmod(benchmark::State& state) {
         state.counters["factor_nnz"] = static_cast<double>(factor->symbolic()->factor_nonzeros());
     }
     for (auto _ : state) {
-        const auto symbolic = kernels::CholeskySymbolic::analyse(in.L);
-        const auto factor = kernels::CholeskyFactor::factorize(symbolic, in.L);
+        const auto symbolic = kernels::CholeskySymbolic::analyse(L);
+        const auto factor = kernels::CholeskyFactor::factorize(symbolic, L);
         const Eigen::MatrixXd x = factor->solve(in.rhs);
         benchmark::DoNotOptimize(x.data());
     }
@@ -221,33 +163,9 @@ class RatioReporter : public benchmark::ConsoleReporter {
     std::set<Key> from_median_;
 };
 
-// `--write-loop=PATH,LEVEL`: returns true if the flag was given (and the file written).
-bool write_loop_if_asked(int argc, char** argv) {
-    const std::string flag = "--write-loop=";
-    for (int i = 1; i < argc; ++i) {
-        const std::string arg = argv[i];
-        if (arg.rfind(flag, 0) != 0) continue;
-        const std::string value = arg.substr(flag.size());
-        const std::size_t comma = value.rfind(',');
-        if (comma == std::string::npos)
-            throw std::invalid_argument("expected --write-loop=PATH,LEVEL");
-        const int level = std::stoi(value.substr(comma + 1));
-        if (level < 0 || level > 4) throw std::invalid_argument("LEVEL must lie in [0, 4]");
-        write_off(*turbine_loop(level), value.substr(0, comma));
-        return true;
-    }
-    return false;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-    try {
-        if (write_loop_if_asked(argc, argv)) return 0;
-    } catch (const std::exception& e) {
-        std::cerr << "conformal_bench: " << e.what() << "\n";
-        return 1;
-    }
     benchmark::Initialize(&argc, argv);
     if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
     benchmark::AddCustomContext("mesh", "libcgal-demo turbine.off, Loop-subdivided");

@@ -3,12 +3,12 @@
 # after 1 and 2 Loop steps, and prints a Markdown table: faces, genus, the stage timings the
 # pipeline reports, their total, the process wall time and its peak RSS (from /usr/bin/time -v).
 # Builds nothing. Usage: bench/conformal_table.sh [BUILD_DIR]   (default ./build; needs the
-# `holoflow` and `conformal_bench` targets built, the latter only for the Loop rows).
+# `holoflow` and `kernels_bench` targets built, the latter only for the Loop rows).
 set -euo pipefail
 
 build=${1:-./build}
 cli="$build/holoflow"
-writer="$build/bench/conformal_bench"  # `--write-loop=PATH,LEVEL` writes turbine's Loop levels
+writer="$build/bench/kernels_bench"  # `--write-subdivided=PATH,MESH,SCHEME,LEVEL` writes the Loop levels
 corpus="$build/data/meshes"
 meshes=(eight femur elephant helmet anchor couplingdown turbine knot rotor head lion
         mech-holes-shark cheese)
@@ -33,11 +33,11 @@ for m in "${meshes[@]}"; do
 done
 if [[ -x "$writer" && -f "$corpus/turbine.off" ]]; then
     for level in "${loop_levels[@]}"; do
-        "$writer" --write-loop="$work/turbine_loop$level.off,$level"
+        "$writer" --write-subdivided="$work/turbine_loop$level.off,turbine,loop,$level"
         inputs+=("turbine-loop$level $work/turbine_loop$level.off")
     done
 else
-    echo "skip the turbine Loop rows: build the conformal_bench target (HOLOFLOW_BUILD_BENCH=ON)" >&2
+    echo "skip the turbine Loop rows: build the kernels_bench target (HOLOFLOW_BUILD_BENCH=ON)" >&2
 fi
 
 for entry in "${inputs[@]}"; do

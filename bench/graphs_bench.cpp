@@ -19,12 +19,11 @@
 #include <oneapi/tbb/version.h>
 #include <unistd.h>
 
+#include "bench_support.h"
 #include "holoflow/engine/batch.h"
 #include "holoflow/engine/factorization_cache.h"
-#include "holoflow/engine/mesh_loader.h"
 #include "holoflow/graphs/segmentation_graph.h"
 #include "holoflow/kernels/cholesky.h"
-#include "holoflow/kernels/subdivision.h"
 
 namespace {
 
@@ -94,27 +93,25 @@ const Poses& poses(bool intrinsic) {
     static std::map<bool, Poses> made;
     if (auto it = made.find(intrinsic); it != made.end()) return it->second;
     Poses p;
-    const std::string path = std::string(HOLOFLOW_CORPUS_DIR) + "/turbine.off";
-    if (std::filesystem::exists(path)) {
-        const MeshView base = kernels::subdivide_loop(*engine::load_mesh(path).mesh);
-        const Eigen::Vector3d lo = base.V.colwise().minCoeff(), hi = base.V.colwise().maxCoeff();
+    if (std::filesystem::exists(std::string(HOLOFLOW_CORPUS_DIR) + "/turbine.off")) {
+        const std::shared_ptr<const MeshView> base = holoflow::bench::turbine_loop(1);
+        const Eigen::Vector3d lo = base->V.colwise().minCoeff(), hi = base->V.colwise().maxCoeff();
         const double size = (hi - lo).norm();
         std::vector<std::uint64_t> hashes;
         for (int k = 0; k < kPoses; ++k) {
-            auto mesh = std::make_shared<MeshView>(base);
+            auto mesh = std::make_shared<MeshView>(*base);
             const double t = 0.03 * size * k / kPoses;  // up to 3% of the size: a bend
             for (Index v = 0; v < mesh->n_vertices(); ++v) {
                 const double z = (mesh->V(v, 2) - lo(2)) / size;
                 mesh->V(v, 0) += t * std::sin(3 * z);
                 mesh->V(v, 1) += t * std::cos(2 * z) - t;
             }
-            engine::ConformalOptions options;
-            options.laplacian = intrinsic ? engine::LaplacianKind::IntrinsicDelaunay : engine::LaplacianKind::Extrinsic;
-            engine::ConformalWork work = engine::conformal_stage::prepare(mesh, options);
-            engine::conformal_stage::homology(work);
-            engine::conformal_stage::laplacian(work);
-            hashes.push_back(engine::pattern_hash(work.laplacian));
-            p.laplacian.push_back(std::move(work.laplacian));
+            kernels::LaplacianMatrix L =
+                holoflow::bench::pipeline_laplacian(mesh, intrinsic ? engine::LaplacianKind::IntrinsicDelaunay
+                                                                    : engine::LaplacianKind::Extrinsic)
+                    .work.laplacian;
+            hashes.push_back(engine::pattern_hash(L));
+            p.laplacian.push_back(std::move(L));
         }
         std::sort(hashes.begin(), hashes.end());
         p.distinct_patterns = static_cast<std::size_t>(std::unique(hashes.begin(), hashes.end()) - hashes.begin());

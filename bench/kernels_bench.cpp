@@ -22,7 +22,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <filesystem>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -32,10 +31,10 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Sparse>
 #include <oneapi/tbb/task_arena.h>
 #include <oneapi/tbb/version.h>
 
+#include "bench_support.h"
 #include "holoflow/engine/mesh_loader.h"
 #include "holoflow/engine/output.h"
 #include "holoflow/engine/segmentation_pipeline.h"
@@ -58,6 +57,10 @@ using holoflow::Index;
 using holoflow::MeshView;
 namespace engine = holoflow::engine;
 namespace kernels = holoflow::kernels;
+using holoflow::bench::full_matrix;
+using holoflow::bench::relative_residual;
+using holoflow::bench::subdivided;
+using holoflow::bench::turbine_loop;
 
 constexpr int kMaxLevel = 2;
 constexpr int kLargestLevelIterations = 3;  // level 2 runs 0.1 to 1 s per call: fixed, predictable
@@ -66,7 +69,7 @@ constexpr double kIdentityTol = 1e-10;     // the same sums in another order: ro
 constexpr double kIntegrationTol = 1e-9;   // per-face closure error relative to the largest uv
 constexpr std::uint64_t kSeed = 20261122;  // random test vector of the Laplacian energy check
 
-// Everything the conformal kernels read, built as compute_conformal builds it.
+// Everything the conformal kernels read, built by the conformal pipeline's own stages.
 struct ConformalInputs {
     std::shared_ptr<const MeshView> mesh;
     int genus = 0;
@@ -92,45 +95,19 @@ struct SegmentationInputs {
     std::size_t trajectories = 0;  // what the pipeline traced, for validation
 };
 
-std::shared_ptr<const MeshView> subdivided(const std::string& mesh, const std::string& scheme,
-                                           int level) {
-    const std::string path = std::filesystem::is_regular_file(mesh)
-                                 ? mesh
-                                 : std::string(HOLOFLOW_CORPUS_DIR) + "/" + mesh + ".off";
-    if (!std::filesystem::exists(path)) throw std::runtime_error("mesh missing: " + path);
-    if (scheme != "loop" && scheme != "midpoint")
-        throw std::invalid_argument("SCHEME must be loop or midpoint");
-    std::shared_ptr<const MeshView> m = engine::load_mesh(path).mesh;
-    // Each step makes 4x the faces; halfedge ids are 32-bit.
-    if (level < 0 || 3.0 * m->n_faces() * std::pow(4.0, level) >= 2147483647.0)
-        throw std::invalid_argument("LEVEL must be >= 0 and keep 3 x faces below 2^31");
-    for (int l = 0; l < level; ++l)
-        m = std::make_shared<const MeshView>(scheme == "loop" ? kernels::subdivide_loop(*m)
-                                                              : kernels::subdivide_midpoint(*m));
-    return m;
-}
-
-std::shared_ptr<const MeshView> turbine_loop(int level) {
-    static std::map<int, std::shared_ptr<const MeshView>> cache;
-    if (auto it = cache.find(level); it != cache.end()) return it->second;
-    return cache.emplace(level, subdivided("turbine", "loop", level)).first->second;
-}
-
 const ConformalInputs& conformal_inputs(int level) {
     static std::map<int, std::unique_ptr<ConformalInputs>> cache;
     if (auto it = cache.find(level); it != cache.end()) return *it->second;
     auto in = std::make_unique<ConformalInputs>();
     in->mesh = turbine_loop(level);
-    const MeshView& mesh = *in->mesh;
-    in->genus = kernels::compute_topology(mesh).genus;
-    in->homology = kernels::compute_homology_basis(mesh);
-    in->intrinsic = kernels::intrinsic_delaunay(mesh, in->homology.closed_forms);
+    holoflow::bench::PipelineLaplacian p = holoflow::bench::pipeline_laplacian(in->mesh);
+    in->genus = p.work.result.input_genus;
+    in->homology = std::move(p.work.result.homology);
+    in->intrinsic = std::move(p.work.intrinsic);
+    in->w = std::move(p.work.weights);
+    in->L = std::move(p.work.laplacian);
+    in->rhs = std::move(p.rhs);
     const MeshView& im = in->intrinsic.mesh;
-    in->w = kernels::cotan_weights_from_lengths(im.halfedge_edge, in->intrinsic.edge_length,
-                                                im.n_edges());
-    in->L = kernels::assemble_laplacian(mesh.n_vertices(), im.E, in->w, {in->homology.root});
-    in->rhs = -kernels::codifferential(mesh.n_vertices(), im.E, in->w, in->intrinsic.forms);
-    in->rhs.row(in->homology.root).setZero();
     in->factor =
         kernels::CholeskyFactor::factorize(kernels::CholeskySymbolic::analyse(in->L), in->L);
     in->omega = in->intrinsic.forms;
@@ -158,20 +135,6 @@ const SegmentationInputs& segmentation_inputs(int level) {
     in->trace_options.motorcycle = options.mode == engine::SegmentMode::Layout;
     in->trajectories = r.trajectories.size();
     return *cache.emplace(level, std::move(in)).first->second;
-}
-
-// Upper-triangle CSC storage seen as a full symmetric matrix.
-Eigen::SparseMatrix<double> full_matrix(const kernels::LaplacianMatrix& L) {
-    const Eigen::Map<const Eigen::SparseMatrix<double, Eigen::ColMajor, Index>> upper(
-        L.n, L.n, L.nonzeros(), L.col_start.data(), L.row.data(), L.value.data());
-    return upper.selfadjointView<Eigen::Upper>();
-}
-
-// max |L x - b| / max |b|.
-double relative_residual(const kernels::LaplacianMatrix& L, const Eigen::MatrixXd& x,
-                         const Eigen::MatrixXd& b) {
-    const Eigen::MatrixXd r = full_matrix(L) * x - b;
-    return r.cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff();
 }
 
 // Runs `body` on the level's inputs; a missing mesh or a failed set-up skips with its message.

@@ -4,8 +4,9 @@
 # (the files its MANIFEST.json lists), each under /usr/bin/time -v and a time limit. Prints a
 # Markdown table: input faces, genus, working genus, zeros, patches, stage times from
 # segmentation.json `timings_ms` (tip slicing, the conformal stages summed and their solver
-# part, each segmentation stage), their total, the process wall time and peak RSS. A mesh the
-# command rejects (non-manifold, several components, ...) or that times out gets a `failed:` row.
+# part, each segmentation stage, segmentation stages over conformal ones), their total, the
+# process wall time and peak RSS. A mesh the command rejects (non-manifold, several components,
+# ...) or that times out gets a `failed:` row.
 # Builds nothing. Usage: bench/pipeline_table.sh [BUILD_DIR]   (default ./build; needs the
 # `holoflow` target). HOLOFLOW_TIME_LIMIT sets the per-model limit in seconds (default 300).
 #
@@ -121,7 +122,9 @@ def groups(t):
     conformal = sum(v for k, v in t.items() if k not in SEGMENTATION and k not in (TIPS, "total"))
     tips = t.get(TIPS, 0.0)
     return {"tips": tips, "conformal": conformal, "solver": sum(t.get(s, 0.0) for s in SOLVER),
-            "seg": seg, "seg_total": tips + sum(seg.values()), "total": t["total"]}
+            "seg": seg, "seg_total": tips + sum(seg.values()), "total": t["total"],
+            # issue 4's target: segmentation stages (tips left out) under half the conformal ones
+            "ratio": "%.2f" % (sum(seg.values()) / conformal) if conformal > 0 else "–"}
 
 
 def ms(x):
@@ -152,7 +155,7 @@ def emit(head, cells_of):
 if mode == "corpus":
     head = ["model", "faces", "genus", "working genus", "zeros", "patches", "tips ms",
             "conformal ms", "(solver ms)", "zeros ms", "fans ms", "tracing ms", "cutting ms",
-            "patches ms", "total ms", "process wall ms", "peak RSS MB"]
+            "patches ms", "seg / conformal", "total ms", "process wall ms", "peak RSS MB"]
 
     def cells_of(r, previous):
         j, g = r["report"], groups(r["report"]["timings_ms"])
@@ -161,11 +164,11 @@ if mode == "corpus":
                  ms(g["tips"]) if TIPS in j["timings_ms"] else "–",
                  ms(g["conformal"]), ms(g["solver"])] +
                 [ms(g["seg"][s]) for s in SEGMENTATION] +
-                [ms(g["total"]), wall_ms(r["wall"]), ms(r["rss"])]), previous
+                [g["ratio"], ms(g["total"]), wall_ms(r["wall"]), ms(r["rss"])]), previous
 else:
     # Growth exponent between consecutive rows: log(time ratio) / log(face ratio); 1 is linear.
     head = ["model", "faces", "zeros", "patches", "conformal ms", "(solver ms)", "zeros ms",
-            "fans ms", "tracing ms", "cutting ms", "patches ms", "segmentation ms", "total ms",
+            "fans ms", "tracing ms", "cutting ms", "patches ms", "segmentation ms", "seg / conformal", "total ms",
             "ms per 1k faces", "exponent", "process wall ms", "peak RSS MB", "RSS KB per face"]
 
     def cells_of(r, previous):
@@ -176,7 +179,7 @@ else:
             exponent = "%.2f" % (math.log(total / previous[1]) / math.log(f / previous[0]))
         cells = [r["label"], count(f), str(j["zero_count"]), str(j["patch_count"]),
                  ms(g["conformal"]), ms(g["solver"])] + [ms(g["seg"][s]) for s in SEGMENTATION] + [
-                 ms(g["seg_total"]), ms(total),
+                 ms(g["seg_total"]), g["ratio"], ms(total),
                  "%.2f" % (1000 * total / f) if f else "–", exponent, wall_ms(r["wall"]),
                  ms(r["rss"]), "%.2f" % (1024 * r["rss"] / f) if f and r["rss"] else "–"]
         return cells, (f, total)

@@ -171,15 +171,9 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
         o.working_genus = j.at("working_genus").get<int>();
         o.zeros = j.at("zeros").get<std::int64_t>();
         o.patches = j.at("patches").get<std::int64_t>();
+        // Back in key order: the summary looks stages up by name, so order does not matter.
         for (const auto& [stage, ms] : j.at("timings_ms").items())
             if (stage != "total") o.timings_ms.emplace_back(stage, ms.get<double>());
-        // JSON objects come back sorted by key: restore pipeline order for the CSV columns.
-        std::stable_sort(o.timings_ms.begin(), o.timings_ms.end(), [](const auto& a, const auto& b) {
-            const auto rank = [](const std::string& s) {
-                return std::find(kStageOrder.begin(), kStageOrder.end(), s) - kStageOrder.begin();
-            };
-            return rank(a.first) < rank(b.first);
-        });
         o.reused = true;
         return o;
     } catch (const nlohmann::json::exception&) {

@@ -21,9 +21,15 @@ constexpr double kNegativeWeightTol = 1e-12;
 
 }  // namespace
 
+void require_connected(const kernels::Topology& topology) {
+    HOLOFLOW_REQUIRE(topology.components == 1, "the mesh has " + std::to_string(topology.components) +
+                                                   " components; use --component largest");
+}
+
 namespace conformal_stage {
 
-ConformalWork prepare(std::shared_ptr<const MeshView> input_ptr, ConformalOptions options) {
+ConformalWork prepare(std::shared_ptr<const MeshView> input_ptr, ConformalOptions options,
+                      const kernels::Topology* known_topology) {
     HOLOFLOW_REQUIRE(input_ptr != nullptr, "no mesh");
     ConformalWork work;
     work.input = std::move(input_ptr);
@@ -32,11 +38,9 @@ ConformalWork prepare(std::shared_ptr<const MeshView> input_ptr, ConformalOption
     StageClock clock(r.timings_ms);
     const MeshView& input = *work.input;
 
-    const kernels::Topology topology = kernels::compute_topology(input);
+    const kernels::Topology topology = known_topology ? *known_topology : kernels::compute_topology(input);
     r.input_genus = topology.genus;
-    HOLOFLOW_REQUIRE(topology.components == 1,
-                     "the mesh has " + std::to_string(topology.components) +
-                         " components; use --component largest");
+    require_connected(topology);
     if (topology.boundary_loops > 0) {
         HOLOFLOW_REQUIRE(topology.genus > 0 || topology.boundary_loops > 1,
                          "a topological disk has no holomorphic 1-form (`segment` slices holes at its "

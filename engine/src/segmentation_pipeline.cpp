@@ -72,11 +72,16 @@ std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r) {
     return regions;
 }
 
+struct SlicedSurface {
+    MeshView mesh;
+    kernels::Topology topology;
+};
+
 // The sliced surface needs two boundary loops at least (the double cover then has genus >= 1).
 // A mesh too coarse for that (a cube: holes that swallow whole faces or merge) is refined by
 // midpoint subdivision, which keeps the shape and the vertex ids, and sliced again.
-MeshView slice_at_tips(const MeshView& input, const kernels::Topology& topology, const SegmentOptions& options,
-                       SegmentationResult& r) {
+SlicedSurface slice_at_tips(const MeshView& input, const kernels::Topology& topology, const SegmentOptions& options,
+                            SegmentationResult& r) {
     constexpr int kMaxRefinements = 4;
     constexpr Index kMaxRefinedFaces = 200000;  // refining is for coarse meshes only
     std::shared_ptr<const MeshView> mesh(std::shared_ptr<const MeshView>{}, &input);
@@ -90,13 +95,13 @@ MeshView slice_at_tips(const MeshView& input, const kernels::Topology& topology,
                 tips = kernels::find_tips(*mesh, tip_options);
             }
             kernels::SlicedMesh sliced = kernels::slice_tips(*mesh, tips, options.hole_size);
-            const kernels::Topology cut = kernels::compute_topology(sliced.mesh);
+            kernels::Topology cut = kernels::compute_topology(sliced.mesh);
             HOLOFLOW_REQUIRE(cut.components == 1 && cut.boundary_loops >= 2,
                              "slicing the tips left " + std::to_string(cut.boundary_loops) +
                                  " boundary loop(s); a genus-0 surface needs two to carry a holomorphic 1-form");
             r.tips = sliced.tips;
             r.tip_refinements = refinement;
-            return std::move(sliced.mesh);
+            return {std::move(sliced.mesh), std::move(cut)};
         } catch (const InvalidInput&) {
             if (refinement == kMaxRefinements || 4 * mesh->n_faces() > kMaxRefinedFaces) throw;
         }
@@ -120,17 +125,18 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
 
     const kernels::Topology topology = kernels::compute_topology(input);
     r.input_genus = topology.genus;
-    HOLOFLOW_REQUIRE(topology.components == 1, "the mesh has " + std::to_string(topology.components) +
-                                                   " components; use --component largest");
+    require_connected(topology);
     // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1).
     if (topology.genus == 0 && topology.boundary_loops <= 1) {
-        r.traced_input = std::make_shared<const MeshView>(slice_at_tips(input, topology, work.options, r));
+        SlicedSurface sliced = slice_at_tips(input, topology, work.options, r);
+        r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
         clock.lap("tip_slicing");
+        work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &sliced.topology);
     } else {
         HOLOFLOW_REQUIRE(work.options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
         r.traced_input = work.input;
+        work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &topology);
     }
-    work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal);
     return work;
 }
 
@@ -351,13 +357,11 @@ nlohmann::json complex_report(const SegmentationResult& r) {
     return {{"format", "holoflow flow complex 1"}, {"vertices", nodes}, {"edges", edges}, {"faces", faces}};
 }
 
-const std::vector<std::string> kSegmentationFiles = {"segments.ply", "patches.obj", "trajectories.obj",
-                                                     "domains.svg", "complex.json", "segmentation.json"};
-
-nlohmann::json write_segmentation_folder(const std::filesystem::path& folder, const std::string& input_path,
-                                         const SegmentationResult& result) {
-    nlohmann::json report = segmentation_report(result);
-    report["file"] = input_path;
+void write_segmentation_folder(const std::filesystem::path& folder, const SegmentationResult& result,
+                               const nlohmann::json& report) {
+    prepare_output_folder(folder);
+    remove_stale_temporaries(folder, {"segments.ply", "patches.obj", "trajectories.obj", "domains.svg",
+                                      "complex.json", "segmentation.json"});
     const SegmentationPicture picture = segmentation_picture(result);
     write_file_atomic(folder / "segments.ply", [&](std::ostream& out) { write_segments_ply(out, picture); });
     write_file_atomic(folder / "patches.obj", [&](std::ostream& out) { write_patches_obj(out, picture); });
@@ -366,7 +370,6 @@ nlohmann::json write_segmentation_folder(const std::filesystem::path& folder, co
     write_file_atomic(folder / "domains.svg", [&](std::ostream& out) { write_domains_svg(out, picture); });
     write_file_atomic(folder / "complex.json", complex_report(result).dump(1) + "\n");
     write_file_atomic(folder / "segmentation.json", report.dump(2) + "\n");
-    return report;
 }
 
 SegmentationPicture segmentation_picture(const SegmentationResult& r) {

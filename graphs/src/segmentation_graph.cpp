@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <exception>
+#include <span>
 #include <tuple>
 
 #include "holoflow/engine/flow_graph.h"
@@ -10,19 +11,17 @@
 namespace holoflow::graphs {
 namespace {
 
-using engine::ConformalWork;
 using engine::Item;
 using engine::StageClock;
 namespace conformal_stage = engine::conformal_stage;
 namespace segment_stage = engine::segment_stage;
 using Clock = std::chrono::steady_clock;
 
-//! One model on its way through the stages.
+//! One model on its way through the stages. Its outcome (`run.outcome`) fills in as it goes,
+//! stage times included: `load` (read + validate), the pipeline's own stages, `write`.
 struct ModelState {
-    engine::ModelTask task;
     Clock::time_point deadline = Clock::time_point::max();
     engine::Status status;
-    engine::StageTimes load_times, write_times;  // around the pipeline's own stage times
     engine::PolygonSoup soup;
     std::shared_ptr<const MeshView> mesh;
     engine::SegmentationWork work;
@@ -30,9 +29,11 @@ struct ModelState {
     std::vector<std::exception_ptr> block_errors;  // one slot per solve block
     ModelRun run;
 
+    const engine::ModelTask& task() const { return run.outcome.task; }
     //! Drops the heavy data of a failed (or written) model; the outcome fields stay.
     void release() {
         soup = {};
+        mesh.reset();
         work = {};
     }
 };
@@ -52,23 +53,26 @@ struct Stages {
 
     void read(ModelState& s) const {
         if (options.timeout.count() > 0) s.deadline = Clock::now() + options.timeout;
-        StageClock clock(s.load_times);
-        s.soup = engine::read_polygon_soup(s.task.path);
-        clock.lap("read");
+        StageClock clock(s.run.outcome.timings_ms);
+        s.soup = engine::read_polygon_soup(s.task().path);
+        clock.lap("load");
     }
     void validate(ModelState& s) const {
-        StageClock clock(s.load_times);
+        const auto start = Clock::now();
         engine::LoadedMesh loaded = engine::mesh_from_soup(s.soup, options.load);
         s.soup = {};
         s.mesh = std::move(loaded.mesh);
         s.run.outcome.vertices = static_cast<std::size_t>(s.mesh->n_vertices());
         s.run.outcome.faces = static_cast<std::size_t>(s.mesh->n_faces());
-        clock.lap("validate");
+        s.run.outcome.timings_ms.back().second +=
+            std::chrono::duration<double, std::milli>(Clock::now() - start).count();  // into `load`
     }
     void prepare(ModelState& s) const {
         s.work = segment_stage::prepare(s.mesh, options.segment);
         s.run.outcome.genus = s.work.result.input_genus;
     }
+    void homology(ModelState& s) const { conformal_stage::homology(s.work.conformal); }
+    void laplacian(ModelState& s) const { conformal_stage::laplacian(s.work.conformal); }
     void factorise(ModelState& s) const { conformal_stage::factorise(s.work.conformal, cache); }
     //! Sizes the block slots; returns the number of blocks.
     int begin_solves(ModelState& s) const {
@@ -92,83 +96,92 @@ struct Stages {
         s.block_errors.clear();
         conformal_stage::end_solves(s.work.conformal);
     }
+    void hodge_star(ModelState& s) const { conformal_stage::hodge_star(s.work.conformal); }
+    void integrate(ModelState& s) const { conformal_stage::integrate(s.work.conformal); }
+    void zeros(ModelState& s) const { segment_stage::zeros(s.work); }
+    void fans(ModelState& s) const { segment_stage::fans(s.work); }
+    void trace(ModelState& s) const { segment_stage::trace(s.work); }
+    void cut(ModelState& s) const { segment_stage::cut(s.work); }
     void write(ModelState& s) const {
-        StageClock clock(s.write_times);
-        const engine::SegmentationResult& r = s.work.result;
-        s.run.outcome.working_genus = r.conformal.basis.genus;
-        s.run.outcome.zeros = r.zeros.total_order;
-        s.run.outcome.patches = static_cast<std::int64_t>(r.patches.info.size());
-        if (!s.task.out_dir.empty()) {
-            engine::prepare_output_folder(s.task.out_dir);
-            engine::remove_stale_temporaries(s.task.out_dir, engine::kSegmentationFiles);  // a killed run's
-            s.run.report = engine::write_segmentation_folder(s.task.out_dir, s.task.path, r);
-        } else {
-            s.run.report = engine::segmentation_report(r);
-            s.run.report["file"] = s.task.path;
-        }
-        if (options.keep_results)
-            s.run.result = std::make_shared<const engine::SegmentationResult>(std::move(s.work.result));
+        const auto start = Clock::now();
+        engine::SegmentationResult& r = s.work.result;
+        engine::ModelOutcome& o = s.run.outcome;
+        o.working_genus = r.conformal.basis.genus;
+        o.zeros = r.zeros.total_order;
+        o.patches = static_cast<std::int64_t>(r.patches.info.size());
+        o.timings_ms.insert(o.timings_ms.end(), r.timings_ms.begin(), r.timings_ms.end());
+        s.run.report = engine::segmentation_report(r);
+        s.run.report["file"] = s.task().path;
+        if (!s.task().out_dir.empty()) engine::write_segmentation_folder(s.task().out_dir, r, s.run.report);
+        if (options.keep_results) s.run.result = std::make_shared<const engine::SegmentationResult>(std::move(r));
         s.release();
-        clock.lap("write");
+        o.timings_ms.emplace_back("write", std::chrono::duration<double, std::milli>(Clock::now() - start).count());
     }
 };
 
+struct NamedStage {
+    const char* name;
+    void (Stages::*run)(ModelState&) const;
+};
+
+// The stages before the solve blocks and after them, in order: the graph chains one node per
+// entry and the serial twin loops over the same tables.
+constexpr NamedStage kBeforeSolves[] = {
+    {"read", &Stages::read},         {"validate", &Stages::validate},   {"prepare", &Stages::prepare},
+    {"homology", &Stages::homology}, {"laplacian", &Stages::laplacian}, {"factorise", &Stages::factorise},
+};
+constexpr NamedStage kAfterSolves[] = {
+    {"end_solves", &Stages::end_solves}, {"hodge_star", &Stages::hodge_star}, {"integrate", &Stages::integrate},
+    {"zeros", &Stages::zeros},           {"fans", &Stages::fans},             {"trace", &Stages::trace},
+    {"cut", &Stages::cut},               {"write", &Stages::write},
+};
+constexpr const char* kSolvesStage = "solves";  // begin_solves and the blocks
+
 std::shared_ptr<ModelState> new_state(const engine::ModelTask& task) {
     auto s = std::make_shared<ModelState>();
-    s->task = task;
     s->run.outcome.task = task;
     return s;
 }
 
-// The outcome as the collector hands it out: status and all stage times in order.
+// The run as the collector hands it out.
 ModelRun finish(ModelState& s) {
     s.release();
-    s.mesh.reset();
-    engine::ModelOutcome& o = s.run.outcome;
-    o.status = s.status;
-    o.timings_ms.clear();
-    double load = 0;
-    for (const auto& [stage, ms] : s.load_times) load += ms;
-    if (!s.load_times.empty()) o.timings_ms.emplace_back("load", load);
-    if (s.run.report.contains("timings_ms"))
-        for (const auto& [stage, ms] : s.run.report["timings_ms"].items())
-            if (stage != "total") o.timings_ms.emplace_back(stage, ms.get<double>());
-    for (const auto& t : s.write_times) o.timings_ms.push_back(t);
-    if (!o.status.ok()) s.run.report = nullptr;
+    s.run.outcome.status = s.status;
+    if (!s.status.ok()) s.run.report = nullptr;
     return std::move(s.run);
 }
 
-// Builds the whole graph into `g`; `runs` receives each model's result at its id.
-void build(engine::Graph& g, const Stages& stages, const SegmentationGraphOptions& options,
-           const std::vector<engine::ModelTask>& tasks, std::vector<ModelRun>& runs,
-           const ModelCallback& on_done) {
+// Builds the whole graph into `g`; `runs` receives each model's result at its id. Returns the
+// queue the model ids go into.
+tbb::flow::queue_node<std::uint64_t>& build(engine::Graph& g, const Stages& stages,
+                                            const std::vector<engine::ModelTask>& tasks,
+                                            std::vector<ModelRun>& runs, const ModelCallback& on_done) {
     using namespace tbb::flow;
-    using engine::add_stage_node;
+    using StageNode = function_node<ModelItem, ModelItem>;
     using SplitNode = multifunction_node<ModelItem, std::tuple<SolveBlock, ModelItem>>;
     using SolveNode = multifunction_node<SolveBlock, std::tuple<ModelItem>>;
 
-    auto next = std::make_shared<std::size_t>(0);
-    auto& source = g.add<input_node<ModelItem>>("models", [&tasks, next](tbb::flow_control& control) {
-        if (*next == tasks.size()) {
-            control.stop();
-            return ModelItem{};
+    // One node per table entry, each connected to the previous one.
+    const auto add_chain = [&](std::span<const NamedStage> table) {
+        std::vector<StageNode*> chain;
+        for (const NamedStage& stage : table) {
+            chain.push_back(&engine::add_stage_node<ModelState>(
+                g, stage.name, [&stages, run = stage.run](ModelState& s) { (stages.*run)(s); }));
+            if (chain.size() > 1) g.connect(*chain[chain.size() - 2], *chain.back());
         }
-        const engine::ModelTask& task = tasks[(*next)++];
-        return ModelItem{task.id, new_state(task)};
-    });
-    auto& in_flight = g.add<limiter_node<ModelItem>>("in_flight", std::max<std::size_t>(1, options.max_in_flight));
-    auto& read = add_stage_node<ModelState>(g, "read", [&](ModelState& s) { stages.read(s); });
-    auto& validate = add_stage_node<ModelState>(g, "validate", [&](ModelState& s) { stages.validate(s); });
-    auto& prepare = add_stage_node<ModelState>(g, "prepare", [&](ModelState& s) { stages.prepare(s); });
-    auto& homology = add_stage_node<ModelState>(
-        g, "homology", [](ModelState& s) { conformal_stage::homology(s.work.conformal); });
-    auto& laplacian = add_stage_node<ModelState>(
-        g, "laplacian", [](ModelState& s) { conformal_stage::laplacian(s.work.conformal); });
-    auto& factorise = add_stage_node<ModelState>(g, "factorise", [&](ModelState& s) { stages.factorise(s); });
+        return chain;
+    };
+
+    // Ids wait in the queue; the limiter pulls the next one whenever a model is collected.
+    auto& models = g.add<queue_node<std::uint64_t>>("models");
+    auto& in_flight = g.add<limiter_node<std::uint64_t>>("in_flight", std::max<std::size_t>(1, stages.options.max_in_flight));
+    auto& admit = g.add<function_node<std::uint64_t, ModelItem>>(
+        "admit", unlimited, [&tasks](std::uint64_t id) { return ModelItem{id, new_state(tasks[id])}; });
+    const std::vector<StageNode*> before = add_chain(kBeforeSolves);
     auto& split_solves = g.add<SplitNode>(
         "split_solves", unlimited, [&](const ModelItem& item, SplitNode::output_ports_type& ports) {
             int blocks = 0;
-            engine::run_stage(*item.state, "solves", [&](ModelState& s) { blocks = stages.begin_solves(s); });
+            engine::run_stage(*item.state, kSolvesStage, [&](ModelState& s) { blocks = stages.begin_solves(s); });
             if (blocks == 0) std::get<1>(ports).try_put(item);  // failed: straight on
             for (int b = 0; b < blocks; ++b) std::get<0>(ports).try_put(SolveBlock{item, b});
         });
@@ -178,16 +191,7 @@ void build(engine::Graph& g, const Stages& stages, const SegmentationGraphOption
         // The last block to finish passes the model on (acq_rel: it sees every block's slot).
         if (s.blocks_left.fetch_sub(1, std::memory_order_acq_rel) == 1) std::get<0>(ports).try_put(block.model);
     });
-    auto& end_solves = add_stage_node<ModelState>(g, "end_solves", [&](ModelState& s) { stages.end_solves(s); });
-    auto& hodge_star = add_stage_node<ModelState>(
-        g, "hodge_star", [](ModelState& s) { conformal_stage::hodge_star(s.work.conformal); });
-    auto& integrate = add_stage_node<ModelState>(
-        g, "integrate", [](ModelState& s) { conformal_stage::integrate(s.work.conformal); });
-    auto& zeros = add_stage_node<ModelState>(g, "zeros", [](ModelState& s) { segment_stage::zeros(s.work); });
-    auto& fans = add_stage_node<ModelState>(g, "fans", [](ModelState& s) { segment_stage::fans(s.work); });
-    auto& trace = add_stage_node<ModelState>(g, "trace", [](ModelState& s) { segment_stage::trace(s.work); });
-    auto& cut = add_stage_node<ModelState>(g, "cut", [](ModelState& s) { segment_stage::cut(s.work); });
-    auto& write = add_stage_node<ModelState>(g, "write", [&](ModelState& s) { stages.write(s); });
+    const std::vector<StageNode*> after = add_chain(kAfterSolves);
     auto& collect = g.add<function_node<ModelItem, continue_msg>>(
         "collect", serial, [&runs, &on_done](const ModelItem& item) {
             ModelRun& run = runs[item.id] = finish(*item.state);
@@ -195,27 +199,16 @@ void build(engine::Graph& g, const Stages& stages, const SegmentationGraphOption
             return continue_msg{};
         });
 
-    g.connect(source, in_flight);
-    g.connect(in_flight, read);
-    g.connect(read, validate);
-    g.connect(validate, prepare);
-    g.connect(prepare, homology);
-    g.connect(homology, laplacian);
-    g.connect(laplacian, factorise);
-    g.connect(factorise, split_solves);
+    g.connect(models, in_flight);
+    g.connect(in_flight, admit);
+    g.connect(admit, *before.front());
+    g.connect(*before.back(), split_solves);
     g.connect_port<0>(split_solves, solve, "blocks");
-    g.connect_port<1>(split_solves, hodge_star, "failed");
-    g.connect_port<0>(solve, end_solves, "last block");
-    g.connect(end_solves, hodge_star);
-    g.connect(hodge_star, integrate);
-    g.connect(integrate, zeros);
-    g.connect(zeros, fans);
-    g.connect(fans, trace);
-    g.connect(trace, cut);
-    g.connect(cut, write);
-    g.connect(write, collect);
+    g.connect_port<1>(split_solves, *after.front(), "failed");
+    g.connect_port<0>(solve, *after.front(), "last block");
+    g.connect(*after.back(), collect);
     g.connect_decrement(collect, in_flight);
-    source.activate();
+    return models;
 }
 
 }  // namespace
@@ -230,37 +223,29 @@ std::vector<ModelRun> SegmentationGraph::run(const std::vector<engine::ModelTask
     std::vector<ModelRun> runs(tasks.size());
     const Stages stages{options_, cache_};
     engine::Graph g;
-    build(g, stages, options_, tasks, runs, on_done);
+    auto& models = build(g, stages, tasks, runs, on_done);
+    for (const engine::ModelTask& task : tasks) models.try_put(task.id);
     g.wait_for_all();
     return runs;
 }
 
 std::vector<ModelRun> SegmentationGraph::run_serial(const std::vector<engine::ModelTask>& tasks,
                                                     const ModelCallback& on_done) const {
-    using engine::run_stage;
     const Stages stages{options_, cache_};
+    const auto run_table = [&](ModelState& s, std::span<const NamedStage> table) {
+        for (const NamedStage& stage : table)
+            engine::run_stage(s, stage.name, [&](ModelState& m) { (stages.*stage.run)(m); });
+    };
     std::vector<ModelRun> runs;
     for (const engine::ModelTask& task : tasks) {
         const std::shared_ptr<ModelState> state = new_state(task);
         ModelState& s = *state;
-        run_stage(s, "read", [&](ModelState& m) { stages.read(m); });
-        run_stage(s, "validate", [&](ModelState& m) { stages.validate(m); });
-        run_stage(s, "prepare", [&](ModelState& m) { stages.prepare(m); });
-        run_stage(s, "homology", [](ModelState& m) { conformal_stage::homology(m.work.conformal); });
-        run_stage(s, "laplacian", [](ModelState& m) { conformal_stage::laplacian(m.work.conformal); });
-        run_stage(s, "factorise", [&](ModelState& m) { stages.factorise(m); });
-        run_stage(s, "solves", [&](ModelState& m) {
+        run_table(s, kBeforeSolves);
+        engine::run_stage(s, kSolvesStage, [&](ModelState& m) {
             const int blocks = stages.begin_solves(m);
             for (int b = 0; b < blocks; ++b) stages.solve(m, b);
         });
-        run_stage(s, "end_solves", [&](ModelState& m) { stages.end_solves(m); });
-        run_stage(s, "hodge_star", [](ModelState& m) { conformal_stage::hodge_star(m.work.conformal); });
-        run_stage(s, "integrate", [](ModelState& m) { conformal_stage::integrate(m.work.conformal); });
-        run_stage(s, "zeros", [](ModelState& m) { segment_stage::zeros(m.work); });
-        run_stage(s, "fans", [](ModelState& m) { segment_stage::fans(m.work); });
-        run_stage(s, "trace", [](ModelState& m) { segment_stage::trace(m.work); });
-        run_stage(s, "cut", [](ModelState& m) { segment_stage::cut(m.work); });
-        run_stage(s, "write", [&](ModelState& m) { stages.write(m); });
+        run_table(s, kAfterSolves);
         runs.push_back(finish(s));
         if (on_done) on_done(runs.back());
     }
@@ -272,8 +257,7 @@ void SegmentationGraph::to_dot(std::ostream& out) const {
     std::vector<ModelRun> runs;
     const Stages stages{options_, cache_};
     engine::Graph g;
-    build(g, stages, options_, none, runs, {});
-    g.wait_for_all();
+    build(g, stages, none, runs, {});
     g.to_dot(out, "holoflow segmentation");
 }
 

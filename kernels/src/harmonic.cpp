@@ -38,17 +38,21 @@ Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<
     return delta;
 }
 
+Eigen::MatrixXd harmonic_rhs(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
+                             const Eigen::MatrixXd& eta, std::span<const Index> pinned) {
+    HOLOFLOW_REQUIRE(eta.rows() == E.rows(), "need one form value per edge");
+    for (Index p : pinned)
+        HOLOFLOW_REQUIRE(p >= 0 && p < n_vertices, "pinned vertex " + std::to_string(p) + " out of range");
+    // delta(eta + d f) = delta eta + L f = 0; pinned rows are identity rows with f = 0.
+    Eigen::MatrixXd rhs = -codifferential(n_vertices, E, w, eta);
+    for (Index p : pinned) rhs.row(p).setZero();
+    return rhs;
+}
+
 Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> w,
                                    const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
                                    std::span<const Index> pinned) {
-    const Index n = factor.size();
-    HOLOFLOW_REQUIRE(eta.rows() == E.rows(), "need one form value per edge");
-    for (Index p : pinned)
-        HOLOFLOW_REQUIRE(p >= 0 && p < n, "pinned vertex " + std::to_string(p) + " out of range");
-    // delta(eta + d f) = delta eta + L f = 0; pinned rows are identity rows with f = 0.
-    Eigen::MatrixXd rhs = -codifferential(n, E, w, eta);
-    for (Index p : pinned) rhs.row(p).setZero();
-    return factor.solve(rhs);
+    return factor.solve(harmonic_rhs(factor.size(), E, w, eta, pinned));
 }
 
 void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {

@@ -97,7 +97,7 @@ TEST_P(ThreadSweep, GraphMatchesSerialTwin) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Threads, ThreadSweep, ::testing::Values(1, 2, 8),
-                         [](const auto& info) { return "threads_" + std::to_string(info.param); });
+                         [](const ::testing::TestParamInfo<int>& sweep) { return "threads_" + std::to_string(sweep.param); });
 
 TEST(SegmentationGraph, BatchModelsMatchSingleModelRuns) {
     const TempDir dir;

@@ -20,6 +20,7 @@
 #include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
 #include "holoflow/kernels/mesh_view.h"
+#include "holoflow/kernels/topology.h"
 
 namespace holoflow::engine {
 
@@ -71,6 +72,9 @@ struct ConformalResult {
     StageTimes timings_ms;
 };
 
+//! \throw InvalidInput naming the count unless the mesh is one connected component.
+void require_connected(const kernels::Topology& topology);
+
 //! One model between the conformal stages. The flow graph's nodes hand it from stage to stage;
 //! compute_conformal runs the same stages in sequence. Each stage appends its wall time to
 //! result.timings_ms and drops what later stages no longer need.
@@ -96,8 +100,10 @@ struct ConformalWork {
 
 //! The conformal stages in order (DESIGN 2.2-2.4); each throws as compute_conformal does.
 namespace conformal_stage {
-//! Topology checks, double cover for open input.
-ConformalWork prepare(std::shared_ptr<const MeshView> input, ConformalOptions options);
+//! Topology checks, double cover for open input. `topology`: the input's, when the caller has
+//! it already (computed here otherwise).
+ConformalWork prepare(std::shared_ptr<const MeshView> input, ConformalOptions options,
+                      const kernels::Topology* topology = nullptr);
 //! Tree-cotree cut graph, homology loops, closed forms.
 void homology(ConformalWork& work);
 //! Intrinsic Delaunay flips (or the mesh itself), cotan weights, the pinned Laplacian.

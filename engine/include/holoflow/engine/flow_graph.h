@@ -32,6 +32,8 @@ struct Item {
 class Graph {
   public:
     Graph();
+    //! Waits for the tasks still queued (a node's forwarding task) before the nodes go.
+    ~Graph() { graph_.wait_for_all(); }
     Graph(const Graph&) = delete;
     Graph& operator=(const Graph&) = delete;
 

@@ -91,12 +91,10 @@ nlohmann::json segmentation_report(const SegmentationResult& result);
 nlohmann::json complex_report(const SegmentationResult& result);
 
 //! Writes segments.ply, patches.obj, trajectories.obj, domains.svg, complex.json and, last,
-//! segmentation.json (with `file` = input_path) into `folder`, each atomically; returns the
-//! segmentation.json object. \pre folder exists. \throw OutputError.
-//! The files write_segmentation_folder writes.
-extern const std::vector<std::string> kSegmentationFiles;
-nlohmann::json write_segmentation_folder(const std::filesystem::path& folder, const std::string& input_path,
-                                         const SegmentationResult& result);
+//! `report` as segmentation.json into `folder` (created if needed; temporaries a killed run left
+//! of these files are removed first), each atomically. \throw OutputError.
+void write_segmentation_folder(const std::filesystem::path& folder, const SegmentationResult& result,
+                               const nlohmann::json& report);
 
 //! The arrays the picture writers draw.
 SegmentationPicture segmentation_picture(const SegmentationResult& result);

@@ -44,9 +44,9 @@ using ModelCallback = std::function<void(ModelRun&)>;
 //! read -> validate -> prepare (topology, tip slicing, double cover) -> homology (cut graph and
 //! closed forms) -> laplacian -> factorise -> split_solves -> solve (the 2g harmonic solves in
 //! blocks, concurrently) -> end_solves -> hodge_star -> integrate -> zeros -> fans -> trace ->
-//! cut (and patches) -> write -> collect. A collection streams through it: models enter through
-//! a limiter (max_in_flight), every message carries its model's id, and the collector stores
-//! results by id, so order of arrival decides nothing. A failing model (bad file, solver
+//! cut (and patches) -> write -> collect. A collection streams through it: model ids wait in a
+//! queue and a limiter admits max_in_flight of them at once, every message carries its model's
+//! id, and the collector stores results by id, so order of arrival decides nothing. A failing model (bad file, solver
 //! failure, time limit) becomes a failed ModelRun; the others go on.
 //! run_serial is the twin: the same stage functions in plain loops, same bits.
 class SegmentationGraph {

@@ -17,6 +17,11 @@ namespace holoflow::kernels {
 Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
                                const Eigen::MatrixXd& omega);
 
+//! Right-hand sides of harmonic_potential: -delta(eta) (#V x k), zero at the pinned vertices.
+//! \throw InvalidInput on mismatched sizes or a pinned vertex out of range.
+Eigen::MatrixXd harmonic_rhs(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
+                             const Eigen::MatrixXd& eta, std::span<const Index> pinned);
+
 //! \brief Potential f (#V x k) of the harmonic part of closed 1-forms: L f = -delta(eta), so
 //! eta + d f is co-closed for the weights w. Vertex functions are shared by every triangulation
 //! of the same vertices, so f computed on an intrinsic triangulation corrects the forms on the
