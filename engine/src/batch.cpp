@@ -174,7 +174,6 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
         // Back in key order: the summary looks stages up by name, so order does not matter.
         for (const auto& [stage, ms] : j.at("timings_ms").items())
             if (stage != "total") o.timings_ms.emplace_back(stage, ms.get<double>());
-        o.reused = true;
         return o;
     } catch (const nlohmann::json::exception&) {
         return std::nullopt;

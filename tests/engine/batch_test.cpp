@@ -80,7 +80,6 @@ TEST(ModelResult, RoundTripsAndChecksSettings) {
     const std::optional<ModelOutcome> back = finished_model(o.task, settings);
     ASSERT_TRUE(back.has_value());
     EXPECT_EQ(outcome_json(*back), outcome_json(o));
-    EXPECT_TRUE(back->reused);
     EXPECT_FALSE(finished_model(o.task, {{"mode", "vertical"}}).has_value()) << "other settings: recompute";
     o.status = Status::failure("solver_failure", "factorise", "not positive definite", kExitSolverFailure);
     write_model_result(o, settings);

@@ -135,7 +135,7 @@ TEST(Segmentation, CoarseGenusZeroIsRefinedBeforeSlicing) {
         const auto mesh = test::corpus_mesh(name);
         const SegmentationResult r = segment(*mesh);
         EXPECT_GT(r.tip_refinements, 0);
-        EXPECT_EQ(r.traced_input->n_faces() > mesh->n_faces(), true);
+        EXPECT_GT(r.traced_input->n_faces(), mesh->n_faces());
         EXPECT_GE(r.conformal.basis.genus, 1);
         EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
         EXPECT_GE(r.patches.info.size(), 1u);

@@ -40,10 +40,6 @@ std::string fingerprint(const ModelRun& run) {
     return s.str();
 }
 
-std::vector<engine::ModelTask> tasks_for(const std::vector<std::string>& paths, const std::filesystem::path& out) {
-    return engine::make_tasks(paths, out);
-}
-
 // A mixed collection: closed of genus 1-3, open (double cover), genus 0 (tips), and broken files.
 std::vector<std::string> mixed_collection(const TempDir& dir) {
     return {corpus("eight.off"),
@@ -67,13 +63,13 @@ TEST_P(ThreadSweep, GraphMatchesSerialTwin) {
     std::vector<ModelRun> serial, graph;
     {
         engine::FactorizationCache cache;
-        serial = SegmentationGraph(options, &cache).run_serial(tasks_for(paths, dir.path() / "serial"));
+        serial = SegmentationGraph(options, &cache).run_serial(engine::make_tasks(paths, dir.path() / "serial"));
     }
     {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, GetParam());
         engine::FactorizationCache cache;
         std::vector<int> seen;
-        graph = SegmentationGraph(options, &cache).run(tasks_for(paths, dir.path() / "graph"),
+        graph = SegmentationGraph(options, &cache).run(engine::make_tasks(paths, dir.path() / "graph"),
                                                        [&](ModelRun& run) { seen.push_back(static_cast<int>(run.outcome.task.id)); });
         EXPECT_EQ(seen.size(), paths.size()) << "one callback per model";
     }
@@ -103,10 +99,10 @@ TEST(SegmentationGraph, BatchModelsMatchSingleModelRuns) {
     const TempDir dir;
     const std::vector<std::string> paths = mixed_collection(dir);
     const SegmentationGraph graph(SegmentationGraphOptions{});
-    const std::vector<ModelRun> batch = graph.run(tasks_for(paths, dir.path() / "batch"));
+    const std::vector<ModelRun> batch = graph.run(engine::make_tasks(paths, dir.path() / "batch"));
     for (std::size_t i = 0; i < paths.size(); ++i) {
         SCOPED_TRACE(paths[i]);
-        engine::ModelTask alone = tasks_for({paths[i]}, dir.path() / ("alone" + std::to_string(i))).front();
+        engine::ModelTask alone = engine::make_tasks({paths[i]}, dir.path() / ("alone" + std::to_string(i))).front();
         const std::vector<ModelRun> single = graph.run({alone});
         ASSERT_EQ(single.size(), 1u);
         // Same files and report; only the folder differs.
@@ -128,7 +124,7 @@ TEST(SegmentationGraph, TimeLimitFailsTheModelNotTheBatch) {
     options.timeout = std::chrono::milliseconds(1);
     // A mesh large enough that its stages take more than a millisecond in total.
     const std::vector<ModelRun> runs =
-        SegmentationGraph(options).run(tasks_for({corpus("turbine.off"), corpus("elephant.off")}, dir.path()));
+        SegmentationGraph(options).run(engine::make_tasks({corpus("turbine.off"), corpus("elephant.off")}, dir.path()));
     ASSERT_EQ(runs.size(), 2u);
     for (const ModelRun& run : runs) {
         EXPECT_EQ(run.outcome.status.kind, "timeout");
@@ -142,7 +138,7 @@ TEST(SegmentationGraph, SolverMemoryLimitIsAResourceLimitFailure) {
     const TempDir dir;
     SegmentationGraphOptions options;
     options.segment.conformal.max_solver_bytes = 1024;  // far below any factor
-    const std::vector<ModelRun> runs = SegmentationGraph(options).run(tasks_for({corpus("eight.off")}, dir.path()));
+    const std::vector<ModelRun> runs = SegmentationGraph(options).run(engine::make_tasks({corpus("eight.off")}, dir.path()));
     EXPECT_EQ(runs[0].outcome.status.kind, "resource_limit");
     EXPECT_EQ(runs[0].outcome.status.stage, "factorise");
     EXPECT_NE(runs[0].outcome.status.message.find("MiB"), std::string::npos);
@@ -168,10 +164,10 @@ TEST(SegmentationGraph, PoseCollectionReusesTheSymbolicAnalysis) {
     SegmentationGraphOptions options;
     options.segment.conformal.laplacian = engine::LaplacianKind::Extrinsic;
     engine::FactorizationCache cache;
-    const std::vector<ModelRun> cached = SegmentationGraph(options, &cache).run_serial(tasks_for(paths, dir.path() / "a"));
+    const std::vector<ModelRun> cached = SegmentationGraph(options, &cache).run_serial(engine::make_tasks(paths, dir.path() / "a"));
     EXPECT_EQ(cache.stats().misses, 1u);
     EXPECT_EQ(cache.stats().hits, 3u);
-    const std::vector<ModelRun> fresh = SegmentationGraph(options).run_serial(tasks_for(paths, dir.path() / "b"));
+    const std::vector<ModelRun> fresh = SegmentationGraph(options).run_serial(engine::make_tasks(paths, dir.path() / "b"));
     for (std::size_t i = 0; i < paths.size(); ++i) {
         ASSERT_TRUE(cached[i].outcome.status.ok()) << cached[i].outcome.status.message;
         nlohmann::json a = cached[i].report, b = fresh[i].report;

@@ -32,7 +32,6 @@ struct ModelOutcome {
     int genus = -1, working_genus = -1;
     std::int64_t zeros = -1, patches = -1;
     StageTimes timings_ms;                //!< load, the pipeline stages, write
-    bool reused = false;                  //!< finished by an earlier run with the same settings
 };
 
 //! \brief Mesh files named by command-line inputs, in order: a mesh file (.off .obj .ply .stl)
