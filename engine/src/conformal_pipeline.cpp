@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
+
+#include <tbb/task_group.h>
 
 #include "holoflow/engine/factorization_cache.h"
 #include "holoflow/engine/stage_clock.h"
@@ -10,6 +13,7 @@
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/harmonic.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
+#include "holoflow/kernels/parallel.h"
 #include "holoflow/kernels/topology.h"
 
 namespace holoflow::engine {
@@ -58,19 +62,6 @@ ConformalWork prepare(std::shared_ptr<const MeshView> input_ptr, ConformalOption
     return work;
 }
 
-void homology(ConformalWork& work) {
-    ConformalResult& r = work.result;
-    StageClock clock(r.timings_ms);
-    r.homology = kernels::compute_homology_basis(*r.surface);
-    clock.lap("cut_graph_and_closed_forms");
-    if (work.options.closed_forms) {
-        HOLOFLOW_REQUIRE(!r.double_covered, "given closed forms need closed input");
-        HOLOFLOW_REQUIRE(work.options.closed_forms->rows() == r.surface->n_edges() &&
-                             work.options.closed_forms->cols() == r.homology.closed_forms.cols(),
-                         "given closed forms must be #E x 2g");
-    }
-}
-
 void laplacian(ConformalWork& work) {
     ConformalResult& r = work.result;
     StageClock clock(r.timings_ms);
@@ -78,7 +69,7 @@ void laplacian(ConformalWork& work) {
     // The Laplacian lives on the intrinsic Delaunay triangulation (or the mesh itself); vertex
     // functions are shared by both, so the harmonic forms come back to the mesh's edges exactly.
     if (work.intrinsic_laplacian()) {
-        work.intrinsic = kernels::intrinsic_delaunay(surface, work.closed_forms());
+        work.intrinsic = kernels::intrinsic_delaunay(surface);
         r.intrinsic_flips = work.intrinsic.flips;
         clock.lap("intrinsic_delaunay");
         work.weights = kernels::cotan_weights_from_lengths(
@@ -94,20 +85,47 @@ void laplacian(ConformalWork& work) {
             work.weights.begin(), work.weights.end(),
             [&](double w) { return w < -kNegativeWeightTol * scale; }));
     }
-    work.pinned = {r.homology.root};
+    // Any one vertex would do (potentials are defined up to a constant): the homology root,
+    // known before the homology basis.
+    work.pinned = {kernels::central_vertex(surface)};
     work.laplacian = kernels::assemble_laplacian(surface.n_vertices(), work.laplace_mesh().E,
                                                  work.weights, work.pinned);
     clock.lap("laplacian_assembly");
 }
 
+void homology(ConformalWork& work) { homology(work, work.result.timings_ms); }
+
+void homology(ConformalWork& work, StageTimes& times) {
+    ConformalResult& r = work.result;
+    StageClock clock(times);
+    r.homology = kernels::compute_homology_basis(*r.surface);
+    clock.lap("cut_graph_and_closed_forms");
+    if (work.options.closed_forms) {
+        HOLOFLOW_REQUIRE(!r.double_covered, "given closed forms need closed input");
+        HOLOFLOW_REQUIRE(work.options.closed_forms->rows() == r.surface->n_edges() &&
+                             work.options.closed_forms->cols() == r.homology.closed_forms.cols(),
+                         "given closed forms must be #E x 2g");
+    }
+    if (work.intrinsic_laplacian()) {
+        HOLOFLOW_REQUIRE(work.intrinsic.form_slot.size() == static_cast<std::size_t>(r.surface->n_edges()),
+                         "homology: the intrinsic triangulation comes first (laplacian stage)");
+        work.intrinsic.forms = kernels::carry_forms(work.intrinsic, work.closed_forms());
+        clock.lap("carry_forms");
+    }
+}
+
 void factorise(ConformalWork& work, FactorizationCache* cache) {
-    StageClock clock(work.result.timings_ms);
+    factorise(work, cache, work.result.timings_ms);
+}
+
+void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times) {
+    StageClock clock(times);
     const auto symbolic = cache ? cache->analysis(work.laplacian)
                                 : kernels::CholeskySymbolic::analyse(work.laplacian);
     clock.lap("analyse");
     if (work.options.max_solver_bytes > 0) {
         // The supernodal factor plus the right-hand sides and potentials of one solve.
-        const std::size_t columns = static_cast<std::size_t>(work.closed_forms().cols());
+        const auto columns = static_cast<std::size_t>(work.form_count());
         const std::size_t bytes =
             8 * (symbolic->factor_nonzeros() + 3 * columns * static_cast<std::size_t>(symbolic->size()));
         if (bytes > work.options.max_solver_bytes)
@@ -118,6 +136,40 @@ void factorise(ConformalWork& work, FactorizationCache* cache) {
     work.factor = kernels::CholeskyFactor::factorize(symbolic, work.laplacian);
     work.laplacian = {};  // the factor holds what the solves need
     clock.lap("factorise");
+}
+
+void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
+    // The factorisation needs only the Laplacian, the cut graph only the surface: they run side
+    // by side, write disjoint fields of `work` and time themselves into their own lists.
+    const auto start = std::chrono::steady_clock::now();
+    StageTimes homology_times, factor_times;
+    std::exception_ptr homology_error, factor_error;
+    tbb::task_group branches;
+    branches.run([&] {
+        try {
+            factorise(work, cache, factor_times);
+        } catch (...) {
+            factor_error = std::current_exception();
+        }
+    });
+    try {
+        homology(work, homology_times);
+    } catch (...) {
+        homology_error = std::current_exception();
+    }
+    branches.wait();
+    if (homology_error) std::rethrow_exception(homology_error);  // the same error whoever finished first
+    if (factor_error) std::rethrow_exception(factor_error);
+    StageTimes& times = work.result.timings_ms;
+    double branches_ms = 0;
+    for (const StageTimes* list : {&homology_times, &factor_times}) {
+        for (const auto& entry : *list) branches_ms += entry.second;
+        times.insert(times.end(), list->begin(), list->end());
+    }
+    // Negative by the time the branches overlapped, so that the stages still sum to wall time.
+    times.emplace_back("overlap",
+                       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count() -
+                           branches_ms);
 }
 
 int begin_solves(ConformalWork& work) {
@@ -215,11 +267,12 @@ void integrate(ConformalWork& work) {
 }
 
 void run_after_prepare(ConformalWork& work, FactorizationCache* cache) {
-    homology(work);
     laplacian(work);
-    factorise(work, cache);
+    homology_and_factorise(work, cache);
     const int blocks = begin_solves(work);
-    for (int b = 0; b < blocks; ++b) work.potential_blocks[b] = solve_block(work, b);
+    par::for_each_index(static_cast<std::size_t>(blocks), blocks > 1, [&](std::size_t b) {
+        work.potential_blocks[b] = solve_block(work, static_cast<int>(b));
+    });
     end_solves(work);
     hodge_star(work);
     integrate(work);

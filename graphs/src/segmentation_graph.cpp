@@ -71,9 +71,10 @@ struct Stages {
         s.work = segment_stage::prepare(s.mesh, options.segment);
         s.run.outcome.genus = s.work.result.input_genus;
     }
-    void homology(ModelState& s) const { conformal_stage::homology(s.work.conformal); }
     void laplacian(ModelState& s) const { conformal_stage::laplacian(s.work.conformal); }
-    void factorise(ModelState& s) const { conformal_stage::factorise(s.work.conformal, cache); }
+    void homology_and_factorise(ModelState& s) const {
+        conformal_stage::homology_and_factorise(s.work.conformal, cache);
+    }
     //! Sizes the block slots; returns the number of blocks.
     int begin_solves(ModelState& s) const {
         const int blocks = conformal_stage::begin_solves(s.work.conformal);
@@ -127,8 +128,9 @@ struct NamedStage {
 // The stages before the solve blocks and after them, in order: the graph chains one node per
 // entry and the serial twin loops over the same tables.
 constexpr NamedStage kBeforeSolves[] = {
-    {"read", &Stages::read},         {"validate", &Stages::validate},   {"prepare", &Stages::prepare},
-    {"homology", &Stages::homology}, {"laplacian", &Stages::laplacian}, {"factorise", &Stages::factorise},
+    {"read", &Stages::read},           {"validate", &Stages::validate},
+    {"prepare", &Stages::prepare},     {"laplacian", &Stages::laplacian},
+    {"homology_and_factorise", &Stages::homology_and_factorise},
 };
 constexpr NamedStage kAfterSolves[] = {
     {"end_solves", &Stages::end_solves}, {"hodge_star", &Stages::hodge_star}, {"integrate", &Stages::integrate},

@@ -8,12 +8,11 @@
 namespace holoflow::kernels {
 namespace {
 
-constexpr Eigen::Index kParallelEdges = 16384;  // smaller forms: one task beats the TBB split
 
 //! Runs fn(c) for every column c; columns in parallel on large meshes, each written by one task.
 template <class Fn>
 void for_each_column(Eigen::Index n_edges, Eigen::Index n_cols, const Fn& fn) {
-    par::for_each_index(static_cast<std::size_t>(n_cols), n_edges >= kParallelEdges,
+    par::for_each_index(static_cast<std::size_t>(n_cols), n_edges >= par::kParallelColumnRows,
                         [&](std::size_t c) { fn(static_cast<Eigen::Index>(c)); });
 }
 

@@ -18,21 +18,6 @@ namespace {
 
 constexpr double kSparseFormsDensity = 0.05;  // below: wedge_matrix multiplies sparse forms
 
-// Vertex nearest the centroid of the vertices, smallest index on ties.
-Index central_vertex(const MeshView& mesh) {
-    const Eigen::RowVector3d centroid = mesh.V.colwise().mean();
-    Index best = 0;
-    double best_d2 = std::numeric_limits<double>::infinity();
-    for (Index v = 0; v < mesh.n_vertices(); ++v) {
-        const double d2 = (mesh.V.row(v) - centroid).squaredNorm();
-        if (d2 < best_d2) {
-            best_d2 = d2;
-            best = v;
-        }
-    }
-    return best;
-}
-
 struct ShortestPathTree {
     std::vector<Index> parent_halfedge;  // parent -> v
     std::vector<Index> depth;            // hops from the root
@@ -151,6 +136,20 @@ Index assign_wedges(const MeshView& mesh, const std::vector<char>& cut,
 }
 
 }  // namespace
+
+Index central_vertex(const MeshView& mesh) {
+    const Eigen::RowVector3d centroid = mesh.V.colwise().mean();
+    Index best = 0;
+    double best_d2 = std::numeric_limits<double>::infinity();
+    for (Index v = 0; v < mesh.n_vertices(); ++v) {
+        const double d2 = (mesh.V.row(v) - centroid).squaredNorm();
+        if (d2 < best_d2) {
+            best_d2 = d2;
+            best = v;
+        }
+    }
+    return best;
+}
 
 HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions& options) {
     HOLOFLOW_REQUIRE(mesh.n_faces() > 0, "mesh has no faces");

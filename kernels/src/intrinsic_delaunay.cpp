@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/parallel.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -34,19 +35,15 @@ bool is_proper_triangle(double x, double y, double z) {
 // corner k+1 of face f; flips rewrite two faces in place, so slots keep their meaning.
 class Flipper {
  public:
-    Flipper(const MeshView& mesh, const Eigen::MatrixXd& forms)
-        : n_forms_(static_cast<Index>(forms.cols())),
-          corner_(static_cast<std::size_t>(mesh.n_halfedges())),
+    explicit Flipper(const MeshView& mesh)
+        : corner_(static_cast<std::size_t>(mesh.n_halfedges())),
           twin_(mesh.twin),
           edge_(mesh.halfedge_edge),
           ref_(mesh.edge_halfedge),
-          length_(static_cast<std::size_t>(mesh.n_edges())),
-          eta_(static_cast<std::size_t>(mesh.n_edges()) * static_cast<std::size_t>(n_forms_)) {
+          length_(static_cast<std::size_t>(mesh.n_edges())) {
         for (Index h = 0; h < mesh.n_halfedges(); ++h) corner_[h] = mesh.tail(h);
-        for (Index e = 0; e < mesh.n_edges(); ++e) {
+        for (Index e = 0; e < mesh.n_edges(); ++e)
             length_[e] = (mesh.V.row(mesh.E(e, 1)) - mesh.V.row(mesh.E(e, 0))).norm();
-            for (Index j = 0; j < n_forms_; ++j) eta_[slot(e, j)] = forms(e, j);
-        }
     }
 
     Index n_edges() const { return static_cast<Index>(length_.size()); }
@@ -56,7 +53,6 @@ class Flipper {
     Index twin(Index h) const { return twin_[h]; }
     Index ref(Index e) const { return ref_[e]; }
     Index corner(Index h) const { return corner_[h]; }
-    double eta(Index e, Index j) const { return eta_[slot(e, j)]; }
 
     //! An interior edge with distinct faces on its sides (only those can flip).
     bool is_flippable(Index e) const {
@@ -78,9 +74,10 @@ class Flipper {
         return cot_sum < -kDelaunayTol * scale;
     }
 
-    //! Flips edge e (abc, bad -> dca, cdb). Returns false, changing nothing, if the new diagonal
-    //! or one of the new triangles comes out degenerate in floating point.
-    bool flip(Index e, Index outer_edges[4]) {
+    //! Flips edge e (abc, bad -> dca, cdb) and appends how its form values follow to `log`.
+    //! Returns false, changing nothing, if the new diagonal or one of the new triangles comes out
+    //! degenerate in floating point.
+    bool flip(Index e, Index outer_edges[4], std::vector<FormFlip>& log) {
         const Index h = ref_[e], t = twin_[h];
         const Index hn = MeshView::next(h), hp = MeshView::prev(h);
         const Index tn = MeshView::next(t), tp = MeshView::prev(t);
@@ -100,12 +97,8 @@ class Flipper {
 
         // eta(c->d) = eta(c->a) + eta(a->d), read before any slot moves. Slot h becomes d->c and
         // t becomes c->d; the edge keeps its index and its reference halfedge.
-        const double sign_ca = along(hp), sign_ad = along(tn);
         const double sign_e = ref_[e] == t ? 1.0 : -1.0;
-        const Index e_ca = edge_[hp], e_ad = edge_[tn];
-        for (Index j = 0; j < n_forms_; ++j)
-            eta_[slot(e, j)] =
-                sign_e * (sign_ca * eta_[slot(e_ca, j)] + sign_ad * eta_[slot(e_ad, j)]);
+        log.push_back({e, edge_[hp], edge_[tn], sign_e * along(hp), sign_e * along(tn)});
         length_[e] = cd;
 
         // The outer halfedges keep their direction and rotate one slot: c->a from hp to hn,
@@ -143,33 +136,23 @@ class Flipper {
     }
 
  private:
-    std::size_t slot(Index e, Index j) const {
-        return static_cast<std::size_t>(e) * static_cast<std::size_t>(n_forms_) +
-               static_cast<std::size_t>(j);
-    }
     //! +1 if halfedge h runs along its edge's reference direction, -1 otherwise.
     double along(Index h) const { return ref_[edge_[h]] == h ? 1.0 : -1.0; }
 
-    Index n_forms_;
     std::vector<Index> corner_;  // #H: tail vertex of each halfedge
     std::vector<Index> twin_;    // #H
     std::vector<Index> edge_;    // #H: edge of each halfedge
     std::vector<Index> ref_;     // #E: halfedge along which the edge's form values are measured
     std::vector<double> length_;
-    std::vector<double> eta_;  // #E x k, row-major: one flip touches three rows
 };
 
 }  // namespace
 
-IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::MatrixXd& forms,
-                                          const IntrinsicDelaunayOptions& options) {
+IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const IntrinsicDelaunayOptions& options) {
     const Index n_edges = mesh.n_edges();
-    HOLOFLOW_REQUIRE(forms.rows() == n_edges,
-                     "forms needs one row per edge (" + std::to_string(n_edges) + ")");
     HOLOFLOW_REQUIRE(options.max_flips >= -1, "max_flips must be -1 or nonnegative");
-    HOLOFLOW_REQUIRE(forms.allFinite(), "forms has non-finite values");
 
-    Flipper flipper(mesh, forms);
+    Flipper flipper(mesh);
     for (Index f = 0; f < mesh.n_faces(); ++f) {
         const double x = flipper.length(flipper.edge(3 * f)),
                      y = flipper.length(flipper.edge(3 * f + 1)),
@@ -208,7 +191,7 @@ IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::Mat
             break;
         }
         Index outer[4];
-        if (!flipper.flip(e, outer)) continue;  // counted by the final pass below
+        if (!flipper.flip(e, outer, result.form_flips)) continue;  // counted by the final pass below
         ++flips;
         for (Index o : outer) push(o);
     }
@@ -225,15 +208,45 @@ IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::Mat
     result.mesh = make_mesh_view(mesh.V, std::move(F), std::move(twin));
 
     // make_mesh_view numbers edges by their smaller halfedge and orients them along it: move
-    // lengths and form values over, flipping the sign where our reference halfedge differs.
+    // lengths over and note where form values go, with a sign where our reference halfedge differs.
     result.edge_length.assign(static_cast<std::size_t>(n_edges), 0.0);
-    result.forms.resize(n_edges, forms.cols());
+    result.form_slot.assign(static_cast<std::size_t>(n_edges), 0);
+    result.form_sign.assign(static_cast<std::size_t>(n_edges), 1.0);
     for (Index e = 0; e < n_edges; ++e) {
         const Index r = flipper.ref(e), out = result.mesh.halfedge_edge[r];
-        const double sign = result.mesh.edge_halfedge[out] == r ? 1.0 : -1.0;
         result.edge_length[out] = flipper.length(e);
-        for (Index j = 0; j < forms.cols(); ++j) result.forms(out, j) = sign * flipper.eta(e, j);
+        result.form_slot[out] = e;
+        if (result.mesh.edge_halfedge[out] != r) result.form_sign[out] = -1.0;
     }
+    return result;
+}
+
+Eigen::MatrixXd carry_forms(const IntrinsicTriangulation& triangulation, const Eigen::MatrixXd& forms) {
+    const auto n_edges = static_cast<Eigen::Index>(triangulation.form_slot.size());
+    HOLOFLOW_REQUIRE(forms.rows() == n_edges,
+                     "forms needs one row per edge (" + std::to_string(n_edges) + ")");
+    HOLOFLOW_REQUIRE(forms.allFinite(), "forms has non-finite values");
+    Eigen::MatrixXd carried(n_edges, forms.cols());
+    // Columns are independent: replay the flips on each in turn (in place, in flip order).
+    par::for_each_index(static_cast<std::size_t>(forms.cols()), n_edges >= par::kParallelColumnRows, [&](std::size_t c) {
+        const auto j = static_cast<Eigen::Index>(c);
+        Eigen::VectorXd eta = forms.col(j);
+        for (const FormFlip& f : triangulation.form_flips)
+            eta[f.edge] = f.sign_a * eta[f.from_a] + f.sign_b * eta[f.from_b];
+        double* out = carried.col(j).data();
+        for (Eigen::Index e = 0; e < n_edges; ++e)
+            out[e] = triangulation.form_sign[e] * eta[triangulation.form_slot[e]];
+    });
+    return carried;
+}
+
+IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::MatrixXd& forms,
+                                          const IntrinsicDelaunayOptions& options) {
+    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(),
+                     "forms needs one row per edge (" + std::to_string(mesh.n_edges()) + ")");
+    HOLOFLOW_REQUIRE(forms.allFinite(), "forms has non-finite values");
+    IntrinsicTriangulation result = intrinsic_delaunay(mesh, options);
+    result.forms = carry_forms(result, forms);
     return result;
 }
 

@@ -119,8 +119,9 @@ TEST(Cli, ConformalWritesItsFilesAndJson) {
     EXPECT_EQ(j["genus"], 2);
     EXPECT_EQ(j["period_matrix"].size(), 2u);
     EXPECT_EQ(j["period_matrix"][0][1].size(), 2u);  // [re, im]
-    for (const char* stage : {"cut_graph_and_closed_forms", "intrinsic_delaunay", "laplacian_assembly",
-                              "analyse", "factorise", "solves", "hodge_star", "integration"})
+    for (const char* stage : {"cut_graph_and_closed_forms", "carry_forms", "intrinsic_delaunay",
+                              "laplacian_assembly", "analyse", "factorise", "overlap", "solves",
+                              "hodge_star", "integration"})
         EXPECT_TRUE(j["timings_ms"].contains(stage)) << stage;
     EXPECT_EQ(nlohmann::json::parse(std::ifstream(out + "/conformal.json")), j);
     std::ifstream uv(out + "/uv.obj");

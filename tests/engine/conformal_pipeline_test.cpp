@@ -1,5 +1,6 @@
 #include "holoflow/engine/conformal_pipeline.h"
 
+#include <chrono>
 #include <cmath>
 #include <complex>
 #include <cstring>
@@ -150,6 +151,23 @@ TEST(Conformal, SameBitsForOneAndTwoThreads) {
     ASSERT_EQ(one.tau.size(), two.tau.size());
     EXPECT_EQ(std::memcmp(one.tau.data(), two.tau.data(), sizeof(Complex) * one.tau.size()), 0);
     EXPECT_EQ(one.basis.period_matrix, two.basis.period_matrix);
+}
+
+TEST(Conformal, StageTimesAddUpToAtMostTheWallTime) {
+    // homology and factorise run side by side; `overlap` takes back the doubly counted time.
+    const auto mesh = test::corpus_mesh("femur");
+    const auto start = std::chrono::steady_clock::now();
+    const ConformalResult r = compute_conformal(*mesh);
+    const double wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    double sum = 0;
+    bool overlap = false;
+    for (const auto& [stage, ms] : r.timings_ms) {
+        sum += ms;
+        overlap = overlap || stage == "overlap";
+    }
+    EXPECT_TRUE(overlap);
+    EXPECT_GT(sum, 0);
+    EXPECT_LE(sum, wall_ms);
 }
 
 }  // namespace

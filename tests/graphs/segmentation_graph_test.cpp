@@ -140,7 +140,7 @@ TEST(SegmentationGraph, SolverMemoryLimitIsAResourceLimitFailure) {
     options.segment.conformal.max_solver_bytes = 1024;  // far below any factor
     const std::vector<ModelRun> runs = SegmentationGraph(options).run(engine::make_tasks({corpus("eight.off")}, dir.path()));
     EXPECT_EQ(runs[0].outcome.status.kind, "resource_limit");
-    EXPECT_EQ(runs[0].outcome.status.stage, "factorise");
+    EXPECT_EQ(runs[0].outcome.status.stage, "homology_and_factorise");
     EXPECT_NE(runs[0].outcome.status.message.find("MiB"), std::string::npos);
 }
 
@@ -182,7 +182,7 @@ TEST(SegmentationGraph, PrintsItselfAsDot) {
     SegmentationGraph(SegmentationGraphOptions{}).to_dot(dot);
     const std::string text = dot.str();
     EXPECT_EQ(text.rfind("digraph", 0), 0u);
-    for (const char* node : {"read", "validate", "factorise", "split_solves", "solve", "trace", "write", "collect"})
+    for (const char* node : {"read", "validate", "homology_and_factorise", "split_solves", "solve", "trace", "write", "collect"})
         EXPECT_NE(text.find(std::string("label=\"") + node + "\""), std::string::npos) << node;
     EXPECT_NE(text.find("decrement"), std::string::npos);
     EXPECT_EQ(std::count(text.begin(), text.end(), '{'), std::count(text.begin(), text.end(), '}'));

@@ -34,8 +34,10 @@ struct ResourceLimit : std::runtime_error {
 };
 
 //! The 2g harmonic right-hand sides are solved in blocks of this many columns, each block one
-//! task. Fixed (never derived from the thread count) so the bits do not depend on it.
-constexpr Eigen::Index kSolveBlockColumns = 4;
+//! task. Each solve call streams the whole factor, so wide blocks are cheaper per column; a few
+//! blocks still keep the cores busy. Fixed (never derived from the thread count) so the bits do
+//! not depend on it.
+constexpr Eigen::Index kSolveBlockColumns = 8;
 
 struct ConformalOptions {
     LaplacianKind laplacian = LaplacianKind::IntrinsicDelaunay;
@@ -96,6 +98,11 @@ struct ConformalWork {
     const Eigen::MatrixXd& closed_forms() const {
         return options.closed_forms ? *options.closed_forms : result.homology.closed_forms;
     }
+    //! 2g, known before the homology basis: 2 - Euler characteristic of the closed surface.
+    Index form_count() const {
+        const MeshView& s = *result.surface;
+        return 2 - (s.n_vertices() - s.n_edges() + s.n_faces());
+    }
 };
 
 //! The conformal stages in order (DESIGN 2.2-2.4); each throws as compute_conformal does.
@@ -104,13 +111,21 @@ namespace conformal_stage {
 //! it already (computed here otherwise).
 ConformalWork prepare(std::shared_ptr<const MeshView> input, ConformalOptions options,
                       const kernels::Topology* topology = nullptr);
-//! Tree-cotree cut graph, homology loops, closed forms.
-void homology(ConformalWork& work);
-//! Intrinsic Delaunay flips (or the mesh itself), cotan weights, the pinned Laplacian.
+//! Intrinsic Delaunay flips (or the mesh itself), cotan weights, the Laplacian with one vertex
+//! pinned.
 void laplacian(ConformalWork& work);
+//! Tree-cotree cut graph, homology loops, closed forms (carried onto the intrinsic triangulation:
+//! after `laplacian`). `times`: where its stage times go (result.timings_ms by default).
+void homology(ConformalWork& work);
+void homology(ConformalWork& work, StageTimes& times);
 //! Symbolic analysis (from `cache` when given and its pattern was seen), memory check, numeric
 //! factor.
 void factorise(ConformalWork& work, FactorizationCache* cache = nullptr);
+void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times);
+//! homology and factorise at once (they are independent); their times, then `overlap`: the
+//! wall time minus their sum (negative when they overlapped), so the stage times add up to wall
+//! time. Homology's error is thrown first when both fail.
+void homology_and_factorise(ConformalWork& work, FactorizationCache* cache = nullptr);
 //! Sizes potential_blocks and returns their number (starts the `solves` clock).
 int begin_solves(ConformalWork& work);
 //! The potentials of block `block`'s columns (for potential_blocks[block]); reads `work` only,
@@ -122,7 +137,8 @@ void end_solves(ConformalWork& work);
 void hodge_star(ConformalWork& work);
 //! The chosen form, its integration and map quality.
 void integrate(ConformalWork& work);
-//! Every stage after prepare, in order, serially (the flow graph's serial twin).
+//! Every stage after prepare, in order, in one call: homology beside the factorisation and the
+//! solve blocks side by side, as the flow graph runs them.
 void run_after_prepare(ConformalWork& work, FactorizationCache* cache = nullptr);
 }  // namespace conformal_stage
 

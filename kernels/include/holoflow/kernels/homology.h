@@ -32,6 +32,9 @@ struct HomologyOptions {
     Index root = -1;
 };
 
+//! The vertex nearest the centroid of the vertices, smallest index on ties: the default root.
+Index central_vertex(const MeshView& mesh);
+
 //! \brief Tree-cotree homology basis, dual closed 1-forms, cut graph and fundamental domain.
 //! Shortest-path tree by Dijkstra on edge lengths (ties to the smaller vertex, then first
 //! halfedge found), dual tree by BFS over faces from face 0; linear time apart from Dijkstra.

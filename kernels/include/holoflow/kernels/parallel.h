@@ -19,4 +19,8 @@ namespace holoflow::par {
 //! results do not depend on the thread count.
 void for_each_index(std::size_t n, bool parallel, const std::function<void(std::size_t)>& fn);
 
+//! Column-per-task loops over #E x k form matrices go parallel from this many rows; below it one
+//! task beats the TBB split.
+constexpr std::ptrdiff_t kParallelColumnRows = 16384;
+
 }  // namespace holoflow::par
