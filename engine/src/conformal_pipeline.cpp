@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <functional>
 
 #include <tbb/task_group.h>
 
@@ -22,6 +23,28 @@ namespace {
 using Complex = std::complex<double>;
 
 constexpr double kNegativeWeightTol = 1e-12;
+
+//! Runs `first` here and `second` as a task beside it, then throws first's error, else second's:
+//! the same error whichever finished first.
+void side_by_side(const std::function<void()>& first, const std::function<void()>& second) {
+    std::exception_ptr first_error, second_error;
+    tbb::task_group group;
+    group.run([&] {
+        try {
+            second();
+        } catch (...) {
+            second_error = std::current_exception();
+        }
+    });
+    try {
+        first();
+    } catch (...) {
+        first_error = std::current_exception();
+    }
+    group.wait();
+    if (first_error) std::rethrow_exception(first_error);
+    if (second_error) std::rethrow_exception(second_error);
+}
 
 }  // namespace
 
@@ -106,6 +129,9 @@ void homology(ConformalWork& work, StageTimes& times) {
                              work.options.closed_forms->cols() == r.homology.closed_forms.cols(),
                          "given closed forms must be #E x 2g");
     }
+    // A depends on the classes only: ready here, off the solves' path.
+    work.wedge = kernels::wedge_matrix(*r.surface, work.closed_forms());
+    clock.lap("wedge_matrix");
     if (work.intrinsic_laplacian()) {
         HOLOFLOW_REQUIRE(work.intrinsic.form_slot.size() == static_cast<std::size_t>(r.surface->n_edges()),
                          "homology: the intrinsic triangulation comes first (laplacian stage)");
@@ -143,23 +169,7 @@ void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
     // by side, write disjoint fields of `work` and time themselves into their own lists.
     const auto start = std::chrono::steady_clock::now();
     StageTimes homology_times, factor_times;
-    std::exception_ptr homology_error, factor_error;
-    tbb::task_group branches;
-    branches.run([&] {
-        try {
-            factorise(work, cache, factor_times);
-        } catch (...) {
-            factor_error = std::current_exception();
-        }
-    });
-    try {
-        homology(work, homology_times);
-    } catch (...) {
-        homology_error = std::current_exception();
-    }
-    branches.wait();
-    if (homology_error) std::rethrow_exception(homology_error);  // the same error whoever finished first
-    if (factor_error) std::rethrow_exception(factor_error);
+    side_by_side([&] { homology(work, homology_times); }, [&] { factorise(work, cache, factor_times); });
     StageTimes& times = work.result.timings_ms;
     double branches_ms = 0;
     for (const StageTimes* list : {&homology_times, &factor_times}) {
@@ -206,8 +216,7 @@ void end_solves(ConformalWork& work) {
     work.potential_blocks.clear();
     // The potential corrects the forms on both triangulations (it lives on the shared vertices);
     // on the intrinsic one its carried forms become the harmonic ones in place.
-    r.harmonic = work.closed_forms();
-    kernels::add_gradient(surface.E, potential, r.harmonic);
+    r.harmonic = kernels::plus_gradient(surface.E, work.closed_forms(), potential);
     Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
     if (work.intrinsic_laplacian()) kernels::add_gradient(laplace_mesh.E, potential, laplace_omega);
     {
@@ -228,10 +237,10 @@ void hodge_star(ConformalWork& work) {
     ConformalResult& r = work.result;
     StageClock clock(r.timings_ms);
     const Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
-    r.star = kernels::hodge_star(work.weights, laplace_omega, kernels::wedge_matrix(*r.surface, work.closed_forms()));
-    clock.lap("hodge_star");
+    side_by_side([&] { r.star = kernels::hodge_star(work.weights, laplace_omega, work.wedge); },
+                 [&] { r.closedness_max = kernels::closedness_error(*r.surface, r.harmonic); });
+    clock.lap("hodge_star");  // and the closedness check beside it
     r.basis = kernels::holomorphic_basis(r.star);
-    r.closedness_max = kernels::closedness_error(*r.surface, r.harmonic);
     clock.lap("holomorphic_basis");
 }
 
@@ -250,14 +259,15 @@ void integrate(ConformalWork& work) {
                Complex(0, 1) * (omega * conjugate).cast<Complex>();
     };
     r.tau = chosen_form(r.harmonic);
-    r.map = kernels::integrate_form(surface, r.homology, r.tau);
-    r.input_mesh_quality = kernels::map_quality(surface, kernels::edge_lengths(surface), r.tau);
-    if (!work.intrinsic_laplacian()) {
-        r.quality = r.input_mesh_quality;
-    } else {
-        r.quality = kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
-                                         chosen_form(work.intrinsic.forms));
-    }
+    // The map (a serial walk over the faces) and its quality checks are independent.
+    side_by_side([&] { r.map = kernels::integrate_form(surface, r.homology, r.tau); },
+                 [&] {
+                     r.input_mesh_quality = kernels::map_quality(surface, kernels::edge_lengths(surface), r.tau);
+                     r.quality = !work.intrinsic_laplacian()
+                                     ? r.input_mesh_quality
+                                     : kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
+                                                            chosen_form(work.intrinsic.forms));
+                 });
     work.intrinsic = {};
     work.weights = {};
     clock.lap("integration");

@@ -65,12 +65,24 @@ void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd
     });
 }
 
+Eigen::MatrixXd plus_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f) {
+    HOLOFLOW_REQUIRE(eta.rows() == E.rows() && f.cols() == eta.cols(),
+                     "need one form value per edge and one potential per form");
+    HOLOFLOW_REQUIRE(E.size() == 0 || E.maxCoeff() < f.rows(), "edge vertex index out of range");
+    Eigen::MatrixXd omega(eta.rows(), eta.cols());
+    for_each_column(E.rows(), eta.cols(), [&](Eigen::Index c) {
+        double* out = omega.col(c).data();
+        const double* in = eta.col(c).data();
+        const double* fc = f.col(c).data();
+        for (Eigen::Index e = 0; e < E.rows(); ++e) out[e] = in[e] + (fc[E(e, 1)] - fc[E(e, 0)]);
+    });
+    return omega;
+}
+
 Eigen::MatrixXd harmonic_projection(const EdgeMatrix& E, std::span<const double> w,
                                     const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
                                     std::span<const Index> pinned) {
-    Eigen::MatrixXd omega = eta;
-    add_gradient(E, harmonic_potential(E, w, factor, eta, pinned), omega);
-    return omega;
+    return plus_gradient(E, eta, harmonic_potential(E, w, factor, eta, pinned));
 }
 
 }  // namespace holoflow::kernels

@@ -162,6 +162,20 @@ TEST(Codifferential, OfGradientIsLaplacian) {
     EXPECT_LT((delta - Lg).cwiseAbs().maxCoeff(), kSumTol * 10);
 }
 
+TEST(Gradient, PlusGradientIsCopyThenAddGradient) {
+    const IndexedTorus t = indexed_torus(16, 8, 0.02);
+    std::mt19937_64 rng(kSeed + 2);
+    SCOPED_TRACE(kSeed + 2);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    Eigen::MatrixXd f(t.mesh.n_vertices(), 3), eta(t.mesh.n_edges(), 3);
+    for (Eigen::Index k = 0; k < f.size(); ++k) f.data()[k] = uniform(rng);
+    for (Eigen::Index k = 0; k < eta.size(); ++k) eta.data()[k] = uniform(rng);
+    Eigen::MatrixXd expected = eta;
+    add_gradient(t.mesh.E, f, expected);
+    EXPECT_EQ(plus_gradient(t.mesh.E, eta, f), expected);  // the same bits
+    EXPECT_THROW(plus_gradient(t.mesh.E, eta.topRows(3), f), InvalidInput);
+}
+
 TEST(HarmonicProjection, TorusFormsBecomeCoclosedInTheirClass) {
     const IndexedTorus t = indexed_torus(40, 20, 0.03);
     const std::vector<Index> pinned = {0};

@@ -86,6 +86,7 @@ struct ConformalWork {
     ConformalResult result;
     kernels::IntrinsicTriangulation intrinsic;  //!< with LaplacianKind::IntrinsicDelaunay
     std::vector<double> weights;                //!< cotan weights on laplace_mesh()'s edges
+    Eigen::MatrixXd wedge;                      //!< 2g x 2g wedge matrix of the closed forms
     std::vector<Index> pinned;
     kernels::LaplacianMatrix laplacian;
     std::shared_ptr<const kernels::CholeskyFactor> factor;
@@ -114,8 +115,8 @@ ConformalWork prepare(std::shared_ptr<const MeshView> input, ConformalOptions op
 //! Intrinsic Delaunay flips (or the mesh itself), cotan weights, the Laplacian with one vertex
 //! pinned.
 void laplacian(ConformalWork& work);
-//! Tree-cotree cut graph, homology loops, closed forms (carried onto the intrinsic triangulation:
-//! after `laplacian`). `times`: where its stage times go (result.timings_ms by default).
+//! Tree-cotree cut graph, homology loops, closed forms, their wedge matrix; the forms carried onto
+//! the intrinsic triangulation (so after `laplacian`). `times`: where its stage times go (result.timings_ms by default).
 void homology(ConformalWork& work);
 void homology(ConformalWork& work, StageTimes& times);
 //! Symbolic analysis (from `cache` when given and its pattern was seen), memory check, numeric

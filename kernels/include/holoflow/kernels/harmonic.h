@@ -35,6 +35,10 @@ Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> 
 //! \throw InvalidInput on mismatched sizes.
 void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega);
 
+//! eta + d f in one pass, the same bits as copying eta and add_gradient (no separate copy of a
+//! #E x k matrix). \throw InvalidInput on mismatched sizes.
+Eigen::MatrixXd plus_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f);
+
 //! \brief Harmonic part of closed 1-forms (DESIGN 2.3): omega = eta + d f with L f = -delta eta,
 //! the co-closed representative of eta's cohomology class for the weights w (delta omega = 0).
 //! E are the edges (1-forms measured from E(e,0) to E(e,1)), eta is #E x k, `factor` the Cholesky
