@@ -61,9 +61,9 @@ import json, os, re, sys
 work = sys.argv[1]
 order = open(os.path.join(work, "order")).read().split()
 # The pipeline's stage order (conformal.json keeps keys sorted); unknown stages go last.
-known = ["double_cover", "cut_graph_and_closed_forms", "intrinsic_delaunay",
-         "laplacian_assembly", "analyse", "factorise", "solves", "hodge_star",
-         "holomorphic_basis", "integration"]
+known = ["double_cover", "intrinsic_delaunay", "laplacian_assembly",
+         "cut_graph_and_closed_forms", "wedge_matrix", "carry_forms", "analyse", "factorise",
+         "overlap", "solves", "hodge_star", "holomorphic_basis", "integration"]
 
 rows, stages = [], []
 for label in order:
