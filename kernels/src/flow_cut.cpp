@@ -203,15 +203,27 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                     const auto& b = point_in_face[s.to - first_inner].second;
                     local.emplace_back(s.to, b[1] * corner_image(f, 1) + b[2] * corner_image(f, 2));
                 }
-            // Through-going segments first, then curves stopped here, latest stop first: a
-            // curve's blocker is always split in before it.
+            // Through-going segments first, then curves stopped here, latest stop first. A
+            // collision point exists only once its blocker's segment is in, and a blocker may
+            // itself stop here earlier than the curve it blocks: a segment whose end points are
+            // not both on one piece yet waits for the next round.
             std::stable_sort(segs.begin(), segs.end(), [](const FaceSegment& a, const FaceSegment& b) {
                 if (a.collision_tail != b.collision_tail) return !a.collision_tail;
                 return a.collision_tail && a.stop_length > b.stop_length;
             });
             std::vector<Polygon> polys{poly};
-            for (const FaceSegment& s : segs)
-                if (!split(polys, s)) ++skipped[f];
+            std::vector<const FaceSegment*> waiting;
+            for (const FaceSegment& s : segs) waiting.push_back(&s);
+            for (bool progress = true; progress && !waiting.empty();) {
+                progress = false;
+                std::vector<const FaceSegment*> still;
+                for (const FaceSegment* s : waiting) {
+                    if (split(polys, *s)) progress = true;
+                    else still.push_back(s);
+                }
+                waiting.swap(still);
+            }
+            skipped[f] += static_cast<Index>(waiting.size());
             // Point ids to dense slots of the face's chart positions.
             std::sort(local.begin(), local.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
             local.erase(std::unique(local.begin(), local.end(),
