@@ -176,10 +176,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
             const auto label = [&](int k) { return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[3 * f + k]]; };
             auto& segs = face_segments[f];
-            if (segs.empty()) {
-                face_triangles[f].push_back({{mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)}, {label(0), label(1), label(2)}});
-                continue;
-            }
+            if (segs.empty()) continue;  // kept as it is by the assembly (no allocation per face)
             Polygon poly;
             std::vector<std::pair<Index, Complex>> local;  // point id -> chart position
             for (int k = 0; k < 3; ++k) {
@@ -263,19 +260,27 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         V.row(first_inner + static_cast<Index>(q)) = x;
     }
     Index n_tri = 0;
-    for (const auto& t : face_triangles) n_tri += static_cast<Index>(t.size());
+    for (Index f = 0; f < nf; ++f)
+        n_tri += face_segments[f].empty() ? 1 : static_cast<Index>(face_triangles[f].size());
     TriangleMatrix F(n_tri, 3);
     std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
     std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));
     out.original_face.resize(n_tri);
     Index g = 0;
     for (Index f = 0; f < nf; ++f) {
+        if (face_segments[f].empty()) {
+            out.original_face[g] = f;
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k;
+                F(g, k) = mesh.F(f, k);
+                along_new[3 * g + k] = corner_image(f, (k + 1) % 3) - corner_image(f, k);
+                halfedge_cut[3 * g + k] = edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[h]];
+            }
+            ++g;
+            continue;
+        }
         const auto& local = face_positions[f];
         const auto position = [&](Index id) {
-            if (local.empty()) {
-                for (int k = 0; k < 3; ++k)
-                    if (mesh.F(f, k) == id) return corner_image(f, k);
-            }
             return std::lower_bound(local.begin(), local.end(), id,
                                     [](const auto& a, Index x) { return a.first < x; })->second;
         };

@@ -175,29 +175,42 @@ struct Event {
     }
 };
 
-// Same edges crossed in opposite order, at the same places.
-bool reverses(const MeshView& mesh, const Trajectory& a, const Trajectory& b) {
-    if (a.family != b.family || a.end != Trajectory::End::Zero || b.end != Trajectory::End::Zero ||
-        a.start_vertex != b.end_vertex || a.end_vertex != b.start_vertex || a.crossings.size() != b.crossings.size())
+// `b` runs back along `a` (same family, from a's end, the same edges crossed in opposite order
+// at the same places): all of it (b ends at a's start), or a first part when b was stopped by
+// a collision. Level curves of one family never cross, so such a b is the same curve.
+bool retraces(const MeshView& mesh, const Trajectory& a, const Trajectory& b) {
+    if (a.family != b.family || a.end != Trajectory::End::Zero || b.start_vertex != a.end_vertex) return false;
+    const std::size_t n = a.crossings.size(), m = b.crossings.size();
+    if (b.end == Trajectory::End::Zero) {
+        if (b.end_vertex != a.start_vertex || m != n) return false;
+    } else if (b.end != Trajectory::End::Collision || m > n) {
         return false;
-    const std::size_t n = a.crossings.size();
-    if (n == 0) return a.first_face == b.first_face;
-    for (std::size_t j = 0; j < n; ++j) {
-        const EdgeCrossing &x = a.crossings[j], &y = b.crossings[n - 1 - j];
+    }
+    if (m == 0) return b.first_face == a.segment_face(mesh, a.n_segments() - 1);
+    for (std::size_t j = 0; j < m; ++j) {
+        const EdgeCrossing &x = a.crossings[n - 1 - j], &y = b.crossings[j];
         if (mesh.twin[x.halfedge] != y.halfedge || std::abs(x.t - (1 - y.t)) > 1e-6) return false;
     }
     return true;
 }
 
 // A saddle connection (or a closed critical loop) is traced once from each end: the later
-// copy goes, and curves that stopped on it stop on the kept one (its segments in reverse).
+// copy goes. A copy stopped early by a collision goes too, whichever came first: cut in as
+// well, its crossings would sit a rounding error away from the whole curve's, and two chords
+// that close cannot be split apart (the cutter's pieces would overlap). Curves that stopped on
+// a dropped copy stop on the kept curve (its segments in reverse).
 void drop_reversed_duplicates(const MeshView& mesh, std::vector<Trajectory>& out) {
     const Index n = static_cast<Index>(out.size());
     std::vector<Index> copy_of(n, -1);
     for (Index j = 0; j < n; ++j) {
         if (out[j].end != Trajectory::End::Zero) continue;
         for (Index i = 0; i < j && copy_of[j] < 0; ++i)
-            if (copy_of[i] < 0 && reverses(mesh, out[i], out[j])) copy_of[j] = i;
+            if (copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
+    }
+    for (Index j = 0; j < n; ++j) {
+        if (out[j].end != Trajectory::End::Collision) continue;
+        for (Index i = 0; i < n && copy_of[j] < 0; ++i)
+            if (i != j && copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
     }
     std::vector<Index> new_id(n, -1);
     Index kept = 0;
@@ -208,9 +221,9 @@ void drop_reversed_duplicates(const MeshView& mesh, std::vector<Trajectory>& out
         if (t.end != Trajectory::End::Collision) continue;
         const Index b = t.blocker;
         if (copy_of[b] >= 0) {
-            const Trajectory& copy = out[b];
-            t.blocker_segment = copy.n_segments() - 1 - t.blocker_segment;
-            t.blocker_length = copy.length - t.blocker_length;
+            const Trajectory& whole = out[copy_of[b]];
+            t.blocker_segment = whole.n_segments() - 1 - t.blocker_segment;
+            t.blocker_length = whole.length - t.blocker_length;
             t.blocker = copy_of[b];
         }
         t.blocker = new_id[t.blocker];

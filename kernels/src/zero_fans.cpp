@@ -18,7 +18,7 @@ using Complex = std::complex<double>;
 constexpr int kMaxSteps = 32;              // growth steps per region
 constexpr int kMaxStarts = 4;              // first spokes tried per centre
 constexpr int kMaxSearches = 8;            // centres given a sector search per attempt
-constexpr Index kLongChain = 128;          // longer chains: one start, two centres (cubic search)
+constexpr Index kLongChain = 128;          // longer chains: one start, two centres
 constexpr Index kMaxSectorChain = 384;     // longer still: fans only
 constexpr double kOrientationTol = 1e-12;  // image cross product relative to squared lengths
 constexpr double kDegenerateTol = 1e-12;   // 3D cross product relative to squared lengths
@@ -38,7 +38,9 @@ bool ccw(Complex a, Complex b, Complex c) {
 bool segments_touch(Complex a, Complex b, Complex c, Complex d, double tol) {
     const double d1 = cross(b - a, c - a), d2 = cross(b - a, d - a);
     const double d3 = cross(d - c, a - c), d4 = cross(d - c, b - c);
-    const double ta = tol * std::max(1.0, std::abs(b - a)), tc = tol * std::max(1.0, std::abs(d - c));
+    // sqrt of the norm, not std::abs (hypot): this test is the sector search's inner loop.
+    const double ta = tol * std::max(1.0, std::sqrt(std::norm(b - a)));
+    const double tc = tol * std::max(1.0, std::sqrt(std::norm(d - c)));
     if ((d1 > ta && d2 > ta) || (d1 < -ta && d2 < -ta)) return false;
     if ((d3 > tc && d4 > tc) || (d3 < -tc && d4 < -tc)) return false;
     if (std::abs(d1) <= ta && std::abs(d2) <= ta && std::abs(d3) <= tc && std::abs(d4) <= tc) {
@@ -692,14 +694,20 @@ class Builder {
         const std::vector<Complex>& pts = out.point_image;
         const Index np = static_cast<Index>(pts.size());
         const Index n = static_cast<Index>(out.chain.size());  // arc edges; point i + 1 follows i
-        double extent = 0;
-        for (const Complex& p : pts) extent = std::max(extent, std::abs(p - c.image));
-        if (!(extent > 0)) return false;
-        const double tol = kTouchTol * extent;
+        // Most candidates fail: cheap tests first (no hypot, no atan2 until a fan or a sector
+        // search can still follow).
+        double extent2 = 0;
+        for (const Complex& p : pts) extent2 = std::max(extent2, std::norm(p - c.image));
+        if (!(extent2 > 0)) return false;
+        const double tol = kTouchTol * std::sqrt(extent2);
         if (c.vertex >= 0 && is_chain(c.vertex)) return false;
         for (const Complex& p : pts)
-            if (std::abs(p - c.image) <= tol) return false;
+            if (std::norm(p - c.image) <= tol * tol) return false;
         const auto point = [&](Index i) { return pts[out.open ? i : i % np]; };
+        bool fan = true;
+        for (Index i = 0; i < n && fan; ++i) fan = ccw(c.image, point(i), point(i + 1));
+        const int search_cap = n > kLongChain ? 2 : kMaxSearches;
+        if (!fan && !diagnosis && (n > kMaxSectorChain || searches >= search_cap)) return false;
         // Unwrapped angles of the points around the centre.
         std::vector<double> theta(n + 1);
         theta[0] = 0;
@@ -707,21 +715,18 @@ class Builder {
         const double turns = theta[n] / (out.open ? std::numbers::pi : 2 * std::numbers::pi);
         if (std::lround(turns) != order + 1 || std::abs(turns - (order + 1)) > 0.25) return false;
 
-        bool fan = true;
-        for (Index i = 0; i < n; ++i)
-            if (!ccw(c.image, point(i), point(i + 1))) {
-                fan = false;
-                if (diagnosis) {
-                    diagnosis->bad_vertices.push_back(vertex_of(out, i));
-                    diagnosis->bad_vertices.push_back(vertex_of(out, i + 1));
-                }
-            }
         if (fan) {
             for (Index i = 0; i < n; ++i) out.triangles.push_back({kCentre, i % np, (i + 1) % np});
             return true;
         }
+        if (diagnosis)
+            for (Index i = 0; i < n; ++i)
+                if (!ccw(c.image, point(i), point(i + 1))) {
+                    diagnosis->bad_vertices.push_back(vertex_of(out, i));
+                    diagnosis->bad_vertices.push_back(vertex_of(out, i + 1));
+                }
 
-        if (n > kMaxSectorChain || ++searches > (n > kLongChain ? 2 : kMaxSearches)) return false;
+        if (n > kMaxSectorChain || ++searches > search_cap) return false;
         // Starts: the open chain's first point; on a closed chain the points nearest the centre.
         std::vector<Index> starts;
         if (out.open) {
@@ -732,38 +737,65 @@ class Builder {
             std::sort(near.begin(), near.end());
             for (Index i = 0; i < std::min<Index>(np, n > kLongChain ? 1 : kMaxStarts); ++i) starts.push_back(near[i].second);
         }
+        // Per start: the chain's points from it, and per arc edge e (per point j) whether an
+        // earlier arc edge t in [i, e - 2] touches it (touches the spoke from j, t in [i, j - 2]).
+        // Sectors from i are tried with i rising, so each list is tested downwards once, only as
+        // far as some sector reaches back: linear in the chain times a sector's length.
+        struct Hits {
+            Index lowest_tested, hit;  // tests done down to lowest_tested; the highest hit, or -1
+        };
+        std::vector<Complex> rel(n + 1);
+        std::vector<Hits> arc(n), spoke(n + 1);
+        std::vector<Index> best(n + 1), from(n + 1);
         for (Index s : starts) {
-            // valid[i][j]: polygon (centre, point s+i, ..., point s+j) is simple and counter-clockwise.
-            const auto at = [&](Index i) { return point(out.open ? i : (s + i) % np); };
+            // Sector (i, j) is valid when polygon (centre, point s+i, ..., point s+j) is simple and
+            // counter-clockwise; best[j]: most spokes from 0 to j (closest to a fan), rows taken
+            // in order so each is final before it extends, and rows 0 cannot reach are skipped.
+            for (Index i = 0; i <= n; ++i) rel[i] = point(out.open ? i : (s + i) % np);
+            const auto at = [&](Index i) { return rel[i]; };
             const auto ang = [&](Index i) { return out.open ? theta[i] : theta_from(theta, s, i, n); };
-            std::vector<std::vector<char>> valid(n + 1, std::vector<char>(n + 1, 0));
+            for (Index e = 0; e < n; ++e) arc[e] = {e - 1, -1};
+            for (Index j = 0; j <= n; ++j) spoke[j] = {j - 1, -1};
+            std::fill(best.begin(), best.end(), -1);
+            std::fill(from.begin(), from.end(), -1);
+            best[0] = 0;
+            // Is there a t in [i, top] with touches(t)? Tests go downwards and stop at the first hit.
+            const auto hit_from = [&](Hits& h, Index i, const auto& touches) {
+                if (h.hit >= 0) return h.hit >= i;
+                while (h.lowest_tested > i) {
+                    const Index t = --h.lowest_tested;
+                    if (touches(t)) {
+                        h.hit = t;
+                        return true;
+                    }
+                }
+                return false;
+            };
+            const auto arc_hit = [&](Index e, Index i) {
+                return hit_from(arc[e], i, [&](Index t) { return segments_touch(at(t), at(t + 1), at(e), at(e + 1), tol); });
+            };
+            const auto spoke_hit = [&](Index j, Index i) {
+                return hit_from(spoke[j], i, [&](Index t) { return segments_touch(at(t), at(t + 1), at(j), c.image, tol); });
+            };
             for (Index i = 0; i < n; ++i) {
+                if (best[i] < 0) continue;
                 const Complex a = at(i);
+                double arc_area = 0;
                 for (Index j = i + 1; j <= n; ++j) {
                     const Complex p = at(j - 1), q = at(j);
+                    arc_area += cross(p, q);
                     // The new arc edge p q against the earlier ones and the first spoke.
-                    bool clear = true;
-                    for (Index t = i; t + 1 < j - 1 && clear; ++t) clear = !segments_touch(at(t), at(t + 1), p, q, tol);
-                    if (clear && j - 1 > i) clear = !segments_touch(c.image, a, p, q, tol);
-                    if (!clear) break;
+                    if (arc_hit(j - 1, i)) break;
+                    if (j - 1 > i && segments_touch(c.image, a, p, q, tol)) break;
                     const double alpha = ang(j) - ang(i);
                     if (alpha >= 2 * std::numbers::pi - 1e-9) break;
                     if (alpha <= 1e-9) continue;
                     // The closing spoke q -> centre against the arc's other edges.
-                    bool ok = true;
-                    for (Index t = i; t + 1 < j && ok; ++t) ok = !segments_touch(at(t), at(t + 1), q, c.image, tol);
-                    if (!ok) continue;
-                    double area = cross(c.image, a) + cross(q, c.image);
-                    for (Index t = i; t < j; ++t) area += cross(at(t), at(t + 1));
-                    valid[i][j] = area > 0;
+                    if (spoke_hit(j, i)) continue;
+                    if (cross(c.image, a) + cross(q, c.image) + arc_area > 0 && best[i] + 1 > best[j])
+                        best[j] = best[i] + 1, from[j] = i;
                 }
             }
-            // Most spokes (closest to a fan) from 0 to n.
-            std::vector<Index> best(n + 1, -1), from(n + 1, -1);
-            best[0] = 0;
-            for (Index j = 1; j <= n; ++j)
-                for (Index i = 0; i < j; ++i)
-                    if (best[i] >= 0 && valid[i][j] && best[i] + 1 > best[j]) best[j] = best[i] + 1, from[j] = i;
             if (best[n] < 0) continue;
             std::vector<Index> spokes{n};
             while (spokes.back() != 0) spokes.push_back(from[spokes.back()]);

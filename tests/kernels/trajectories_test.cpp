@@ -8,6 +8,7 @@
 
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/flow_cut.h"
 #include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/zero_fans.h"
 #include "support/test_support.h"
@@ -123,6 +124,55 @@ TEST(Trajectories, SaddleConnectionIsKeptOnce) {
                 ASSERT_LT(t.blocker, static_cast<Index>(ts.size()));
                 EXPECT_LT(t.blocker_segment, ts[t.blocker].n_segments());
             }
+    }
+}
+
+// homer (and oblong-shuffled) once failed in the cut stage with "non-manifold edge (a, b): 4
+// faces share it": a critical curve traced from both of its zeros where one copy was stopped
+// by a collision on the way. On f' = (z^2 - 1)((z - 0.3)^2 + 0.81) the real segment between -1
+// and 1 is a horizontal saddle connection; the copy from 1 passes x ~ 0.44 first, the vertical
+// curves from 0.3 +- 0.9i stop on it there, and the copy from -1 later stops on their ends.
+// That partial copy runs a rounding error away from the whole one, its chords cannot be split
+// apart from the whole one's, and the cutter then clipped collinear "triangles" in both faces
+// along an edge. It must go like a whole copy, and the cut mesh must be manifold with every
+// image triangle counter-clockwise.
+TEST(Trajectories, CopyStoppedOnTheWayIsDropped) {
+    // f'(z) = (z^2 - 1)(z - p)(z - q) with p q real, so that v = Im f takes one value at -1 and
+    // 1 (the integral of f' over [-1, 1] is -4/15 - 4/3 p q); p and q are no mirror images, so
+    // their curves reach the connection at different times. Shifted: no vertex on the curves.
+    const Complex p(0.3, 0.9), q = 1.2 * std::conj(p), sum = p + q, product = p * q, shift(0.037, 0.023);
+    const auto f = [=](Complex z) {
+        z -= shift;
+        const Complex z2 = z * z;
+        return z2 * z2 * z / 5.0 - sum * z2 * z2 / 4.0 + (product - 1.0) * z2 * z / 3.0 + sum * z2 / 2.0 - product * z;
+    };
+    const Regularised r =
+        regularise(turned_grid(24), f, {Complex(-1, 0) + shift, Complex(1, 0) + shift, p + shift, q + shift});
+    ASSERT_EQ(r.form.failed_regions, 0);
+    TraceOptions options;
+    options.motorcycle = true;
+    const auto ts = trace_trajectories(r.form.mesh, r.form.tau, r.zeros, kBoth, options);
+    // The connection is kept once, whole; no horizontal curve from an end of it runs back
+    // along its first crossing.
+    Index connections = 0;
+    for (const Trajectory& t : ts)
+        if (t.end == Trajectory::End::Zero && t.family == TrajectoryFamily::Horizontal) {
+            ++connections;
+            ASSERT_FALSE(t.crossings.empty());
+            for (const Trajectory& u : ts) {
+                if (&u == &t || u.family != t.family || u.start_vertex != t.end_vertex || u.crossings.empty()) continue;
+                EXPECT_NE(u.crossings.front().halfedge, r.form.mesh.twin[t.crossings.back().halfedge]);
+            }
+        }
+    EXPECT_EQ(connections, 1);
+    Index stopped = 0;  // the vertical curves from 0.3 +- 0.9i that end on the connection
+    for (const Trajectory& t : ts) stopped += t.end == Trajectory::End::Collision && t.family == TrajectoryFamily::Vertical;
+    EXPECT_GE(stopped, 2);
+    const CutMesh cut = cut_along_trajectories(r.form.mesh, r.form.tau, ts);  // threw before
+    EXPECT_EQ(cut.skipped_segments, 0);
+    for (Index g = 0; g < cut.mesh.n_faces(); ++g) {
+        const Complex a = form_along(cut.mesh, cut.tau, 3 * g), b = -form_along(cut.mesh, cut.tau, 3 * g + 2);
+        EXPECT_GT(cross(a, b), 0) << "face " << g;
     }
 }
 
