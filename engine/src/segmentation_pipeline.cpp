@@ -146,7 +146,11 @@ void zeros(SegmentationWork& work) {
     work.conformal = {};
     r.timings_ms.insert(r.timings_ms.end(), r.conformal.timings_ms.begin(), r.conformal.timings_ms.end());
     StageClock clock(r.timings_ms);
-    r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau);
+    // Saddles are counted where the form is harmonic: on the intrinsic Delaunay triangulation
+    // only if the Laplacian was built there, else on the mesh with its own cotan weights.
+    kernels::ZeroOptions zero_options;
+    zero_options.intrinsic_delaunay = work.options.conformal.laplacian == LaplacianKind::IntrinsicDelaunay;
+    r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau, zero_options);
     const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
     if (!torus) work.regions = zero_regions(r);
     clock.lap("zeros");
@@ -308,7 +312,9 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"zero_count", z.total_order},
         {"zero_index_total", z.total_index},
         {"zeros", zeros},
+        {"saddle_triangulation", z.intrinsic ? "intrinsic_delaunay" : "mesh"},
         {"artifacts", z.artifact_clusters},
+        {"fold_clusters", z.fold_clusters},
         {"artifact_details",
          {{"clusters", z.artifact_clusters},
           {"merged_negative_clusters", z.merged_negative_clusters},
@@ -316,7 +322,10 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
           {"flipped_faces", std::count(z.face_flip.begin(), z.face_flip.end(), 1)}}},
         {"zero_fans",
          {{"failed", r.regular.failed_regions},
-          {"removed_vertices", r.regular.removed_vertices}}},
+          {"merged", r.regular.merged_regions},
+          {"removed_vertices", r.regular.removed_vertices},
+          {"edge_flips", r.regular.edge_flips},
+          {"flipped_faces", r.regular.flipped_faces}}},
         {"trajectories", r.trajectories.size()},
         {"trajectory_ends", ends},
         {"unfinished_trajectories", unfinished},

@@ -176,10 +176,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
             const auto label = [&](int k) { return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[3 * f + k]]; };
             auto& segs = face_segments[f];
-            if (segs.empty()) {
-                face_triangles[f].push_back({{mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)}, {label(0), label(1), label(2)}});
-                continue;
-            }
+            if (segs.empty()) continue;  // kept as it is by the assembly (no allocation per face)
             Polygon poly;
             std::vector<std::pair<Index, Complex>> local;  // point id -> chart position
             for (int k = 0; k < 3; ++k) {
@@ -203,15 +200,27 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                     const auto& b = point_in_face[s.to - first_inner].second;
                     local.emplace_back(s.to, b[1] * corner_image(f, 1) + b[2] * corner_image(f, 2));
                 }
-            // Through-going segments first, then curves stopped here, latest stop first: a
-            // curve's blocker is always split in before it.
+            // Through-going segments first, then curves stopped here, latest stop first. A
+            // collision point exists only once its blocker's segment is in, and a blocker may
+            // itself stop here earlier than the curve it blocks: a segment whose end points are
+            // not both on one piece yet waits for the next round.
             std::stable_sort(segs.begin(), segs.end(), [](const FaceSegment& a, const FaceSegment& b) {
                 if (a.collision_tail != b.collision_tail) return !a.collision_tail;
                 return a.collision_tail && a.stop_length > b.stop_length;
             });
             std::vector<Polygon> polys{poly};
-            for (const FaceSegment& s : segs)
-                if (!split(polys, s)) ++skipped[f];
+            std::vector<const FaceSegment*> waiting;
+            for (const FaceSegment& s : segs) waiting.push_back(&s);
+            for (bool progress = true; progress && !waiting.empty();) {
+                progress = false;
+                std::vector<const FaceSegment*> still;
+                for (const FaceSegment* s : waiting) {
+                    if (split(polys, *s)) progress = true;
+                    else still.push_back(s);
+                }
+                waiting.swap(still);
+            }
+            skipped[f] += static_cast<Index>(waiting.size());
             // Point ids to dense slots of the face's chart positions.
             std::sort(local.begin(), local.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
             local.erase(std::unique(local.begin(), local.end(),
@@ -251,19 +260,27 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         V.row(first_inner + static_cast<Index>(q)) = x;
     }
     Index n_tri = 0;
-    for (const auto& t : face_triangles) n_tri += static_cast<Index>(t.size());
+    for (Index f = 0; f < nf; ++f)
+        n_tri += face_segments[f].empty() ? 1 : static_cast<Index>(face_triangles[f].size());
     TriangleMatrix F(n_tri, 3);
     std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
     std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));
     out.original_face.resize(n_tri);
     Index g = 0;
     for (Index f = 0; f < nf; ++f) {
+        if (face_segments[f].empty()) {
+            out.original_face[g] = f;
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k;
+                F(g, k) = mesh.F(f, k);
+                along_new[3 * g + k] = corner_image(f, (k + 1) % 3) - corner_image(f, k);
+                halfedge_cut[3 * g + k] = edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[h]];
+            }
+            ++g;
+            continue;
+        }
         const auto& local = face_positions[f];
         const auto position = [&](Index id) {
-            if (local.empty()) {
-                for (int k = 0; k < 3; ++k)
-                    if (mesh.F(f, k) == id) return corner_image(f, k);
-            }
             return std::lower_bound(local.begin(), local.end(), id,
                                     [](const auto& a, Index x) { return a.first < x; })->second;
         };

@@ -175,6 +175,68 @@ struct Event {
     }
 };
 
+// `b` runs back along `a` (same family, from a's end, the same edges crossed in opposite order
+// at the same places): all of it (b ends at a's start), or a first part when b was stopped by
+// a collision. Level curves of one family never cross, so such a b is the same curve.
+bool retraces(const MeshView& mesh, const Trajectory& a, const Trajectory& b) {
+    if (a.family != b.family || a.end != Trajectory::End::Zero || b.start_vertex != a.end_vertex) return false;
+    const std::size_t n = a.crossings.size(), m = b.crossings.size();
+    if (b.end == Trajectory::End::Zero) {
+        if (b.end_vertex != a.start_vertex || m != n) return false;
+    } else if (b.end != Trajectory::End::Collision || m > n) {
+        return false;
+    }
+    if (m == 0) return b.first_face == a.segment_face(mesh, a.n_segments() - 1);
+    for (std::size_t j = 0; j < m; ++j) {
+        const EdgeCrossing &x = a.crossings[n - 1 - j], &y = b.crossings[j];
+        if (mesh.twin[x.halfedge] != y.halfedge || std::abs(x.t - (1 - y.t)) > 1e-6) return false;
+    }
+    return true;
+}
+
+// A saddle connection (or a closed critical loop) is traced once from each end: the later
+// copy goes. A copy stopped early by a collision goes too, whichever came first: cut in as
+// well, its crossings would sit a rounding error away from the whole curve's, and two chords
+// that close cannot be split apart (the cutter's pieces would overlap). Curves that stopped on
+// a dropped copy stop on the kept curve (its segments in reverse).
+void drop_reversed_duplicates(const MeshView& mesh, std::vector<Trajectory>& out) {
+    const Index n = static_cast<Index>(out.size());
+    std::vector<Index> copy_of(n, -1);
+    for (Index j = 0; j < n; ++j) {
+        if (out[j].end != Trajectory::End::Zero) continue;
+        for (Index i = 0; i < j && copy_of[j] < 0; ++i)
+            if (copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
+    }
+    for (Index j = 0; j < n; ++j) {
+        if (out[j].end != Trajectory::End::Collision) continue;
+        for (Index i = 0; i < n && copy_of[j] < 0; ++i)
+            if (i != j && copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
+    }
+    std::vector<Index> new_id(n, -1);
+    Index kept = 0;
+    for (Index j = 0; j < n; ++j)
+        if (copy_of[j] < 0) new_id[j] = kept++;
+    if (kept == n) return;
+    for (Trajectory& t : out) {
+        if (t.end != Trajectory::End::Collision) continue;
+        const Index b = t.blocker;
+        if (copy_of[b] >= 0) {
+            const Trajectory& whole = out[copy_of[b]];
+            t.blocker_segment = whole.n_segments() - 1 - t.blocker_segment;
+            t.blocker_length = whole.length - t.blocker_length;
+            t.blocker = copy_of[b];
+        }
+        t.blocker = new_id[t.blocker];
+    }
+    Index w = 0;
+    for (Index j = 0; j < n; ++j)
+        if (copy_of[j] < 0) {
+            if (w != j) out[w] = std::move(out[j]);
+            ++w;
+        }
+    out.resize(kept);
+}
+
 }  // namespace
 
 Index Trajectory::segment_face(const MeshView& mesh, Index j) const {
@@ -191,13 +253,19 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
     const Tracer tracer(mesh, tau, zero_vertices, options);
     std::vector<Trajectory> out;
     std::vector<Walker> walkers;
-    for (Index v : zero_vertices)
+    // A vertex listed twice (zeros the fans merged into one centre) starts its curves once.
+    std::vector<char> started(mesh.n_vertices(), 0);
+    for (Index v : zero_vertices) {
+        if (started[v]) continue;
+        started[v] = 1;
         for (TrajectoryFamily fam : families) tracer.start(v, fam, out, walkers);
+    }
     const Index n = static_cast<Index>(out.size());
     if (!(tracer.unit() > 0)) return out;
 
     if (!options.motorcycle) {
         par::for_each_index(out.size(), true, [&](std::size_t i) { tracer.advance(out[i], walkers[i], tracer.cap() * 2); });
+        drop_reversed_duplicates(mesh, out);
         return out;
     }
 
@@ -298,6 +366,7 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
         decide(last ? std::numeric_limits<double>::infinity() : until);
         if (last) break;
     }
+    drop_reversed_duplicates(mesh, out);
     return out;
 }
 

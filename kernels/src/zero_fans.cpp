@@ -2,19 +2,90 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 
 #include <Eigen/Geometry>
 
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/union_find.h"
 
 namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr int kMaxGrowth = 4;
-constexpr double kOrientationTol = 1e-12;  // relative to the squared image edge lengths
+constexpr int kMaxSteps = 32;              // growth steps per region
+constexpr int kMaxStarts = 4;              // first spokes tried per centre
+constexpr int kMaxSearches = 8;            // centres given a sector search per attempt
+constexpr Index kLongChain = 128;          // longer chains: one start, two centres
+constexpr Index kMaxSectorChain = 384;     // longer still: fans only
+constexpr double kOrientationTol = 1e-12;  // image cross product relative to squared lengths
+constexpr double kDegenerateTol = 1e-12;   // 3D cross product relative to squared lengths
+constexpr double kTouchTol = 1e-10;        // image distances relative to the region's extent
+constexpr Index kCentre = -1;              // point id of the centre in a triangle
+
+double corner_angle(Complex from, Complex to) {
+    const Complex r = std::conj(from) * to;
+    return std::atan2(r.imag(), r.real());
+}
+
+bool ccw(Complex a, Complex b, Complex c) {
+    return cross(b - a, c - a) > kOrientationTol * (std::norm(b - a) + std::norm(c - a));
+}
+
+// Closed segments ab and cd meet, or come within tol of each other (tol: squared-length units).
+bool segments_touch(Complex a, Complex b, Complex c, Complex d, double tol) {
+    const double d1 = cross(b - a, c - a), d2 = cross(b - a, d - a);
+    const double d3 = cross(d - c, a - c), d4 = cross(d - c, b - c);
+    // sqrt of the norm, not std::abs (hypot): this test is the sector search's inner loop.
+    const double ta = tol * std::max(1.0, std::sqrt(std::norm(b - a)));
+    const double tc = tol * std::max(1.0, std::sqrt(std::norm(d - c)));
+    if ((d1 > ta && d2 > ta) || (d1 < -ta && d2 < -ta)) return false;
+    if ((d3 > tc && d4 > tc) || (d3 < -tc && d4 < -tc)) return false;
+    if (std::abs(d1) <= ta && std::abs(d2) <= ta && std::abs(d3) <= tc && std::abs(d4) <= tc) {
+        // Collinear: do their extents overlap along the line?
+        const Complex dir = std::abs(b - a) >= std::abs(d - c) ? b - a : d - c;
+        if (std::abs(dir) == 0) return std::abs(a - c) <= tol;
+        const auto proj = [&](Complex p) { return (std::conj(dir) * p).real() / std::abs(dir); };
+        const double lo1 = std::min(proj(a), proj(b)), hi1 = std::max(proj(a), proj(b));
+        const double lo2 = std::min(proj(c), proj(d)), hi2 = std::max(proj(c), proj(d));
+        return lo1 <= hi2 + tol && lo2 <= hi1 + tol;
+    }
+    return true;
+}
+
+// Ear clipping of a simple counter-clockwise polygon; false when no strict ear is left.
+bool ear_clip(std::vector<Index> ids, const std::vector<Complex>& pos, std::vector<std::array<Index, 3>>& out) {
+    std::vector<Complex> p(pos);
+    while (ids.size() > 3) {
+        const std::size_t m = ids.size();
+        std::size_t ear = m;
+        for (std::size_t i = 0; i < m && ear == m; ++i) {
+            const std::size_t i0 = (i + m - 1) % m, i2 = (i + 1) % m;
+            if (!ccw(p[i0], p[i], p[i2])) continue;
+            bool empty = true;
+            for (std::size_t j = 0; j < m && empty; ++j) {
+                if (j == i || j == i0 || j == i2) continue;
+                const Complex x = p[j];
+                // Points on the ear's border count as inside: the diagonal must stay clear.
+                empty = !(cross(p[i] - p[i0], x - p[i0]) >= 0 && cross(p[i2] - p[i], x - p[i]) >= 0 &&
+                          cross(p[i0] - p[i2], x - p[i2]) >= 0);
+            }
+            if (empty) ear = i;
+        }
+        if (ear == m) return false;
+        const std::size_t i0 = (ear + m - 1) % m, i2 = (ear + 1) % m;
+        out.push_back({ids[i0], ids[ear], ids[i2]});
+        ids.erase(ids.begin() + static_cast<std::ptrdiff_t>(ear));
+        p.erase(p.begin() + static_cast<std::ptrdiff_t>(ear));
+    }
+    if (ids.size() == 3) {
+        if (!ccw(p[0], p[1], p[2])) return false;
+        out.push_back({ids[0], ids[1], ids[2]});
+    }
+    return true;
+}
 
 // Faces around every vertex, CSR.
 struct VertexFaces {
@@ -28,16 +99,28 @@ struct VertexFaces {
     }
 };
 
-// One accepted fan: the star's faces go, the chain (the star's border, counter-clockwise) stays.
-struct Fan {
-    std::vector<Index> region_faces;
-    std::vector<Index> chain;  // halfedges of removed faces along the star's border, in order
-    bool open = false;         // chain runs boundary to boundary (centre on the mesh boundary)
-    Index centre = -1;         // existing vertex, or -1 for a new point
+// One accepted re-triangulation: the region's faces go, its border chain stays, and new
+// triangles join the chain's points (and a centre) in the image of the developed form.
+struct Retriangulation {
+    bool kept = false;          // already regular: faces claimed, left as they are
+    std::vector<Index> faces;   // ascending
+    std::vector<Index> chain;   // border halfedges of removed faces, counter-clockwise
+    bool open = false;          // chain runs boundary to boundary (centre on the mesh boundary)
+    bool has_centre = false;
+    Index centre = -1;          // existing vertex kept as the centre, or -1 for a new point
     Eigen::RowVector3d centre_position = Eigen::RowVector3d::Zero();
     Complex centre_image;
-    std::vector<Complex> chain_tail_image;  // image of each chain halfedge's tail, then its head
-    Complex last_head_image;
+    std::vector<Complex> point_image;  // chain tails, then (open) the last head
+    std::vector<std::array<Index, 3>> triangles;  // point ids, kCentre for the centre
+};
+
+struct Group {
+    std::vector<Index> members;  // input regions (none for a leftover fold)
+    std::vector<Index> seed_faces;
+    int order = 0;
+    bool accepted = false;
+    Index absorbed_into = -1;
+    Retriangulation result;
 };
 
 struct Candidate {
@@ -46,197 +129,764 @@ struct Candidate {
     Eigen::RowVector3d position;
 };
 
-class FanBuilder {
+// Why a region failed, to steer its growth.
+struct Diagnosis {
+    std::vector<Index> bad_vertices;  // border vertices next to a bad spoke or a wrong winding
+};
+
+class Builder {
  public:
-    FanBuilder(const MeshView& mesh, const Eigen::VectorXcd& tau)
-        : mesh_(mesh), tau_(tau), vf_(mesh), in_region_(mesh.n_faces(), 0), used_(mesh.n_faces(), 0),
-          stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), is_boundary_vertex_(mesh.n_vertices(), 0) {
-        for (Index h = 0; h < mesh.n_halfedges(); ++h)
-            if (mesh.twin[h] == kNoHalfedge) is_boundary_vertex_[mesh.tail(h)] = is_boundary_vertex_[mesh.head(h)] = 1;
+    Builder(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions)
+        : mesh_(mesh), regions_(regions), vf_(mesh), along_(mesh.n_halfedges()), angle_(mesh.n_halfedges()),
+          flip_(mesh.n_faces(), 0), winding_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
+          owner_(mesh.n_faces(), -1), mark_(mesh.n_faces(), 0), stamp_(mesh.n_vertices(), -1),
+          chain_stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), origin_(mesh.n_faces()),
+          cut_(mesh.n_halfedges(), 0) {
+        for (Index h = 0; h < mesh.n_halfedges(); ++h) {
+            along_[h] = form_along(mesh, tau, h);
+            if (mesh.twin[h] == kNoHalfedge) boundary_[mesh.tail(h)] = boundary_[mesh.head(h)] = 1;
+        }
+        std::vector<double> total(mesh.n_vertices(), 0);
+        for (Index f = 0; f < mesh.n_faces(); ++f) {
+            double sum = 0;
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k;
+                angle_[h] = corner_angle(along_[h], -along_[MeshView::prev(h)]);
+                total[mesh.tail(h)] += angle_[h];
+                sum += angle_[h];
+            }
+            flip_[f] = static_cast<int>(std::lround((std::numbers::pi - sum) / (2 * std::numbers::pi)));
+        }
+        for (Index v = 0; v < mesh.n_vertices(); ++v)
+            winding_[v] = static_cast<int>(std::lround(total[v] / (2 * std::numbers::pi)));
+        face_cap_ = std::max<Index>(512, mesh.n_faces() / 32);
     }
 
-    // The fan for one region; false when no star up to kMaxGrowth rings takes one.
-    bool build(const ZeroRegion& region, Fan& fan) {
-        std::vector<Index> seeds = region.vertices;
-        if (region.vertex >= 0) seeds.push_back(region.vertex);
-        if (region.face >= 0)
-            for (int k = 0; k < 3; ++k) seeds.push_back(mesh_.F(region.face, k));
-        std::sort(seeds.begin(), seeds.end());
-        seeds.erase(std::unique(seeds.begin(), seeds.end()), seeds.end());
-        for (int grown = 0; grown <= kMaxGrowth; ++grown) {
-            if (try_region(region, seeds, fan)) return true;
-            // Grow by one ring: every vertex of the current star becomes a seed.
-            std::vector<Index> next;
-            for (Index v : seeds)
-                for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i)
-                    for (int k = 0; k < 3; ++k) next.push_back(mesh_.F(vf_.faces[i], k));
-            std::sort(next.begin(), next.end());
-            next.erase(std::unique(next.begin(), next.end()), next.end());
-            seeds.swap(next);
+    std::vector<Group> run() {
+        std::vector<Group> groups(regions_.size());
+        for (std::size_t r = 0; r < regions_.size(); ++r) {
+            groups[r].members = {static_cast<Index>(r)};
+            groups[r].order = regions_[r].order;
+        }
+        // Zeros first, each on its own; then folds (one next to a zero joins the zero's region);
+        // then zeros that failed may take in the zeros of their tangle (one centre for zeros
+        // the mesh cannot separate); then folds again, and flips no region holds.
+        for (int pass = 0; pass < 5; ++pass) {
+            if (pass == 4) add_leftovers(groups);
+            for (std::size_t r = 0; r < groups.size(); ++r) {
+                const bool zeros_pass = pass == 0 || pass == 2;
+                if ((groups[r].order > 0) != zeros_pass || groups[r].absorbed_into >= 0 || groups[r].accepted)
+                    continue;
+                // A region that fails leaves the others as they were (it may have taken some in).
+                std::vector<Group> saved_groups = groups;
+                std::vector<Index> saved_owner = owner_;
+                if (!solve(groups, static_cast<Index>(r), pass == 2)) {
+                    groups.swap(saved_groups);
+                    owner_.swap(saved_owner);
+                }
+            }
+        }
+        return groups;
+    }
+
+    const std::vector<Complex>& along() const { return along_; }
+
+ private:
+    // Flips no region took in (and windings != 1 inside no region) become folds of their own.
+    void add_leftovers(std::vector<Group>& groups) {
+        std::vector<Index> seeds;
+        for (Index f = 0; f < mesh_.n_faces(); ++f)
+            if (flip_[f] && owner_[f] < 0) seeds.push_back(f);
+        for (Index v = 0; v < mesh_.n_vertices(); ++v) {
+            if (boundary_[v] || winding_[v] == 1) continue;
+            bool free = true;
+            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) free = free && owner_[vf_.faces[i]] < 0;
+            if (free) seeds.push_back(vf_.faces[vf_.start[v]]);
+        }
+        // One fold per connected piece (seeds sharing a vertex).
+        std::vector<Index> piece(mesh_.n_vertices(), -1);
+        UnionFind pieces(static_cast<Index>(seeds.size()));
+        for (Index i = 0; i < static_cast<Index>(seeds.size()); ++i)
+            for (int k = 0; k < 3; ++k) {
+                Index& p = piece[mesh_.F(seeds[i], k)];
+                if (p >= 0) pieces.unite(p, i);
+                else p = i;
+            }
+        std::vector<Index> group_of(seeds.size(), -1);
+        for (Index i = 0; i < static_cast<Index>(seeds.size()); ++i) {
+            Index& g = group_of[pieces.find(i)];
+            if (g < 0) g = static_cast<Index>(groups.size()), groups.emplace_back();
+            for (int k = 0; k < 3; ++k) star(mesh_.F(seeds[i], k), groups[g].seed_faces);
+        }
+        for (std::size_t g = 0; g < groups.size(); ++g) normalise(groups[g].seed_faces);
+    }
+
+    bool solve(std::vector<Group>& groups, Index g, bool merge_zeros) {
+        std::vector<Index> faces = groups[g].seed_faces;
+        for (Index r : groups[g].members) add_seeds(regions_[r], faces);
+        normalise(faces);
+        if (!merge_zeros && already_regular(groups, g, faces)) return true;
+        if (merge_zeros) take_tangle(groups, g, faces);
+        std::vector<Index> previous;
+        for (int step = 0; step <= kMaxSteps; ++step) {
+            absorb_or_block(groups, g, faces, merge_zeros);
+            fill_holes(faces);
+            if (faces.empty() || static_cast<Index>(faces.size()) > face_cap_ || faces == previous) return false;
+            previous = faces;
+            Diagnosis diagnosis;
+            const bool accepted = try_region(groups[g], faces, diagnosis);
+            if (accepted) {
+                groups[g].accepted = true;
+                for (Index f : faces) owner_[f] = g;
+                return true;
+            }
+            if (!grow(faces, diagnosis)) return false;
         }
         return false;
     }
 
-    void claim(const Fan& fan) {
-        for (Index f : fan.region_faces) used_[f] = 1;
+    // A lone region with nothing to repair (no flip around its vertices, every winding 1, a
+    // zero's vertex winding order + 1) keeps its faces; they are claimed so that no other
+    // region takes its centre away.
+    bool already_regular(std::vector<Group>& groups, Index g, const std::vector<Index>& faces) {
+        Group& group = groups[g];
+        if (group.members.size() != 1) return false;
+        const ZeroRegion& region = regions_[group.members.front()];
+        if (group.order > 0 && (region.vertex < 0 || boundary_[region.vertex])) return false;
+        for (Index f : faces)
+            if (flip_[f] || owner_[f] >= 0) return false;
+        std::vector<Index> vertices = region.vertices;
+        if (region.vertex >= 0) vertices.push_back(region.vertex);
+        for (Index v : vertices)
+            if (!boundary_[v] && winding_[v] != (v == region.vertex ? group.order + 1 : 1)) return false;
+        group.accepted = true;
+        group.result = Retriangulation{};
+        group.result.kept = true;
+        group.result.faces = faces;
+        group.result.has_centre = region.vertex >= 0;
+        group.result.centre = region.vertex >= 0 ? region.vertex : vertices.front();
+        for (Index f : faces) owner_[f] = g;
+        return true;
     }
 
- private:
-    bool try_region(const ZeroRegion& region, const std::vector<Index>& seeds, Fan& fan) {
-        fan = Fan{};
-        for (Index v : seeds)
-            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) fan.region_faces.push_back(vf_.faces[i]);
-        std::sort(fan.region_faces.begin(), fan.region_faces.end());
-        fan.region_faces.erase(std::unique(fan.region_faces.begin(), fan.region_faces.end()), fan.region_faces.end());
-        for (Index f : fan.region_faces)
-            if (used_[f]) return false;  // overlaps an earlier fan
-        for (Index f : fan.region_faces) in_region_[f] = 1;
-        const bool ok = develop_and_fan(region, fan);
-        for (Index f : fan.region_faces) in_region_[f] = 0;
+    // The whole tangle around the region: the connected flips and windings != 1 (over mesh
+    // edges) that touch it, with every zero inside, whose separate regions failed.
+    void take_tangle(std::vector<Group>& groups, Index g, std::vector<Index>& faces) {
+        const auto special = [&](Index v) {
+            if (!boundary_[v] && winding_[v] != 1) return true;
+            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i)
+                if (flip_[vf_.faces[i]]) return true;
+            return false;
+        };
+        std::vector<Index> queue;
+        ++generation_;
+        for (Index f : faces)
+            for (int k = 0; k < 3; ++k) {
+                const Index v = mesh_.F(f, k);
+                if (stamp_[v] != generation_ && special(v)) stamp_[v] = generation_, queue.push_back(v);
+            }
+        for (std::size_t q = 0; q < queue.size(); ++q) {
+            const Index v = queue[q];
+            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i)
+                for (int k = 0; k < 3; ++k) {
+                    const Index w = mesh_.F(vf_.faces[i], k);
+                    if (stamp_[w] != generation_ && special(w)) stamp_[w] = generation_, queue.push_back(w);
+                }
+        }
+        for (Index v : queue) star(v, faces);
+        normalise(faces);
+        for (Index o = 0; o < static_cast<Index>(groups.size()); ++o) {
+            if (o == g || groups[o].accepted || groups[o].absorbed_into >= 0 || groups[o].order <= 0) continue;
+            bool inside = false;
+            for (Index r : groups[o].members)
+                inside = inside || (regions_[r].vertex >= 0 && stamp_[regions_[r].vertex] == generation_);
+            if (!inside) continue;
+            groups[o].absorbed_into = g;
+            groups[g].order += groups[o].order;
+            groups[g].members.insert(groups[g].members.end(), groups[o].members.begin(), groups[o].members.end());
+        }
+    }
+
+    void add_seeds(const ZeroRegion& region, std::vector<Index>& faces) const {
+        std::vector<Index> seeds = region.vertices;
+        if (region.vertex >= 0) seeds.push_back(region.vertex);
+        if (region.face >= 0)
+            for (int k = 0; k < 3; ++k) seeds.push_back(mesh_.F(region.face, k));
+        for (Index v : seeds) star(v, faces);
+        if (region.face >= 0) faces.push_back(region.face);
+    }
+
+    void star(Index v, std::vector<Index>& faces) const {
+        for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) faces.push_back(vf_.faces[i]);
+    }
+
+    static void normalise(std::vector<Index>& faces) {
+        std::sort(faces.begin(), faces.end());
+        faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    }
+
+    // Faces of accepted regions: a fold (order 0) on either side joins this region; two zeros
+    // never merge (each keeps its own centre), so the other zero's faces are left out.
+    void absorb_or_block(std::vector<Group>& groups, Index g, std::vector<Index>& faces, bool merge_zeros) {
+        const auto absorb = [&](Index o, std::vector<Index>& kept) {
+            Group& other = groups[o];
+            other.accepted = false;
+            other.absorbed_into = g;
+            groups[g].order += other.order;
+            groups[g].members.insert(groups[g].members.end(), other.members.begin(), other.members.end());
+            for (Index x : other.result.faces) owner_[x] = -1, kept.push_back(x);
+            other.result = Retriangulation{};
+        };
+        for (bool changed = true; changed;) {
+            changed = false;
+            std::vector<Index> kept;
+            for (Index f : faces) {
+                const Index o = owner_[f];
+                if (o < 0 || o == g) {
+                    kept.push_back(f);
+                    continue;
+                }
+                if (groups[o].order > 0 && groups[g].order > 0 && !merge_zeros) continue;  // blocked
+                absorb(o, kept);
+                changed = true;
+            }
+            if (merge_zeros) {
+                // Zeros not placed yet whose point the region covers.
+                for (Index f : faces) mark_[f] = 1;
+                for (Index o = 0; o < static_cast<Index>(groups.size()); ++o) {
+                    if (o == g || groups[o].accepted || groups[o].absorbed_into >= 0 || groups[o].order <= 0) continue;
+                    bool inside = false;
+                    for (Index r : groups[o].members) {
+                        const ZeroRegion& region = regions_[r];
+                        if (region.face >= 0) inside = inside || mark_[region.face];
+                        if (region.vertex >= 0)
+                            for (Index i = vf_.start[region.vertex]; i < vf_.start[region.vertex + 1]; ++i)
+                                inside = inside || mark_[vf_.faces[i]];
+                    }
+                    if (inside) absorb(o, kept), changed = true;
+                }
+                for (Index f : faces) mark_[f] = 0;
+            }
+            faces.swap(kept);
+            normalise(faces);
+        }
+    }
+
+    // Closes small holes (complement pieces bounded by the region, not touching the mesh
+    // boundary or another region), so that growth around a cluster leaves a disk.
+    void fill_holes(std::vector<Index>& faces) {
+        for (Index f : faces) mark_[f] = 1;
+        std::vector<Index> added, piece, seen;
+        for (Index f : faces)
+            for (int k = 0; k < 3; ++k) {
+                const Index t = mesh_.twin[3 * f + k];
+                if (t == kNoHalfedge || mark_[MeshView::face(t)]) continue;
+                // Flood the outside piece, up to the region's size.
+                piece.assign(1, MeshView::face(t));
+                mark_[piece[0]] = 2;
+                bool hole = true;
+                for (std::size_t q = 0; q < piece.size() && hole; ++q) {
+                    const Index x = piece[q];
+                    // A hole is smaller than the region and than the rest of the surface.
+                    if (owner_[x] >= 0 || piece.size() > faces.size() ||
+                        2 * piece.size() > static_cast<std::size_t>(mesh_.n_faces()) - faces.size())
+                        hole = false;
+                    for (int j = 0; j < 3 && hole; ++j) {
+                        const Index u = mesh_.twin[3 * x + j];
+                        if (u == kNoHalfedge) hole = false;
+                        else if (!mark_[MeshView::face(u)]) mark_[MeshView::face(u)] = 2, piece.push_back(MeshView::face(u));
+                    }
+                }
+                if (hole) {
+                    for (Index x : piece) mark_[x] = 1, added.push_back(x);
+                } else {
+                    for (Index x : piece) seen.push_back(x);  // outside: leave marked 2 until done
+                }
+            }
+        for (Index x : seen) mark_[x] = 0;
+        for (Index f : faces) mark_[f] = 0;
+        for (Index x : added) mark_[x] = 0;
+        faces.insert(faces.end(), added.begin(), added.end());
+        normalise(faces);
+    }
+
+    // Grows towards what broke: flipped faces touching the region, stars of border vertices
+    // whose winding is not 1 or that saw a bad spoke; else one ring.
+    bool grow(std::vector<Index>& faces, const Diagnosis& diagnosis) {
+        const std::size_t before = faces.size();
+        for (Index f : faces) mark_[f] = 1;
+        std::vector<Index> border;
+        for (Index f : faces)
+            for (int k = 0; k < 3; ++k) {
+                const Index t = mesh_.twin[3 * f + k];
+                if (t != kNoHalfedge && !mark_[MeshView::face(t)]) border.push_back(mesh_.tail(3 * f + k));
+            }
+        normalise(border);
+        std::vector<Index> add;
+        for (Index v : border) {
+            bool special = !boundary_[v] && winding_[v] != 1;
+            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) special = special || flip_[vf_.faces[i]];
+            if (special) star(v, add);
+        }
+        for (Index v : diagnosis.bad_vertices) star(v, add);
+        bool grew = false;
+        for (Index f : add) grew = grew || !mark_[f];
+        if (!grew)
+            for (Index v : border) star(v, add);
+        for (Index f : faces) mark_[f] = 0;
+        faces.insert(faces.end(), add.begin(), add.end());
+        normalise(faces);
+        return faces.size() > before;
+    }
+
+    bool try_region(Group& group, const std::vector<Index>& faces, Diagnosis& diagnosis) {
+        Retriangulation& out = group.result;
+        out = Retriangulation{};
+        out.faces = faces;
+        for (Index f : faces) mark_[f] = 1;
+        const bool ok = develop(group, out, diagnosis);
+        for (Index f : faces) mark_[f] = 0;
         return ok;
     }
 
-    bool develop_and_fan(const ZeroRegion& region, Fan& fan) {
+    Complex corner_image(Index f, int k) const {
+        return origin_[f] + (k == 0 ? Complex(0) : k == 1 ? along_[3 * f] : -along_[3 * f + 2]);
+    }
+    bool is_chain(Index v) const { return chain_stamp_[v] == generation_; }
+
+    bool develop(Group& group, Retriangulation& out, Diagnosis& diagnosis) {
         ++generation_;
-        // Develop the form over the star by a walk across its interior edges (in_region_ turns
-        // from 1 to 2 on the faces reached).
-        std::vector<Index> queue{fan.region_faces.front()};
-        in_region_[queue[0]] = 2;
-        set_image(mesh_.F(queue[0], 0), 0);
-        Index vertices = 1, interior_halfedges = 0;
+        // Develop the form over a breadth-first tree of the region's faces (mark_ turns from 1
+        // to 2 on the faces reached). Interior edges whose two sides then disagree (the region
+        // goes around a handle) are cuts: the region is handled as the disk it is once cut
+        // there, both sides of a cut on its border.
+        const Index f0 = out.faces.front();
+        std::vector<Index> queue{f0};
+        mark_[f0] = 2;
+        origin_[f0] = 0;
         for (std::size_t q = 0; q < queue.size(); ++q) {
             const Index f = queue[q];
-            Index h = 3 * f;
-            while (stamp_[mesh_.tail(h)] != generation_) h = MeshView::next(h);
-            for (int s = 0; s < 2; ++s, h = MeshView::next(h)) {
-                const Complex expected = image_[mesh_.tail(h)] + form_along(mesh_, tau_, h);
-                if (stamp_[mesh_.head(h)] != generation_) {
-                    set_image(mesh_.head(h), expected);
-                    ++vertices;
-                } else if (std::abs(image_[mesh_.head(h)] - expected) >
-                           1e-8 * (std::abs(expected) + std::abs(form_along(mesh_, tau_, h)))) {
-                    return false;  // the star is not simply connected (wraps around a handle)
-                }
-            }
             for (int k = 0; k < 3; ++k) {
                 const Index t = mesh_.twin[3 * f + k];
-                if (t == kNoHalfedge || in_region_[MeshView::face(t)] != 1) continue;
-                in_region_[MeshView::face(t)] = 2;
-                queue.push_back(MeshView::face(t));
+                if (t == kNoHalfedge || mark_[MeshView::face(t)] != 1) continue;
+                const Index g = MeshView::face(t);
+                mark_[g] = 2;
+                origin_[g] = 0;
+                origin_[g] = corner_image(f, (k + 1) % 3) - corner_image(g, t % 3);
+                queue.push_back(g);
             }
         }
-        if (queue.size() != fan.region_faces.size()) return false;  // not connected
-        // Border of the star: halfedges whose twin is outside it (or on the mesh boundary).
-        std::vector<Index> inner, outer;
-        for (Index f : fan.region_faces)
+        for (Index f : out.faces) mark_[f] = mark_[f] ? 1 : 0;
+        if (queue.size() != out.faces.size()) return false;
+        std::vector<Index> border;
+        Index interior_halfedges = 0, cuts = 0;
+        for (Index f : out.faces)
             for (int k = 0; k < 3; ++k) {
                 const Index h = 3 * f + k, t = mesh_.twin[h];
-                if (t == kNoHalfedge) outer.push_back(h);
-                else if (!in_region_[MeshView::face(t)]) inner.push_back(h);
-                else ++interior_halfedges;
+                cut_[h] = 0;
+                if (t == kNoHalfedge || !mark_[MeshView::face(t)]) {
+                    border.push_back(h);
+                    continue;
+                }
+                const Complex mine = corner_image(f, k), theirs = corner_image(MeshView::face(t), (t % 3 + 1) % 3);
+                if (std::abs(mine - theirs) > 1e-8 * (std::abs(mine) + std::abs(along_[h]))) {
+                    cut_[h] = 1;
+                    ++cuts;
+                    border.push_back(h);
+                } else {
+                    ++interior_halfedges;
+                }
             }
-        const Index edges = interior_halfedges / 2 + static_cast<Index>(inner.size() + outer.size());
-        if (vertices - edges + static_cast<Index>(fan.region_faces.size()) != 1) return false;  // not a disk
-        if (inner.empty()) return false;
-
-        // Chain the inner border: each tail must start exactly one inner halfedge.
-        std::sort(inner.begin(), inner.end(), [&](Index a, Index b) { return mesh_.tail(a) < mesh_.tail(b); });
-        for (std::size_t i = 1; i < inner.size(); ++i)
-            if (mesh_.tail(inner[i]) == mesh_.tail(inner[i - 1])) return false;  // pinched
-        auto starting_at = [&](Index v) -> Index {
-            auto it = std::lower_bound(inner.begin(), inner.end(), v,
-                                       [&](Index h, Index x) { return mesh_.tail(h) < x; });
-            return it != inner.end() && mesh_.tail(*it) == v ? *it : kNoHalfedge;
-        };
-        fan.open = !outer.empty();
-        Index first = inner.front();
-        if (fan.open) {
-            // The open chain starts where no inner halfedge ends.
+        bool touches_boundary = false;
+        for (Index h : border) touches_boundary = touches_boundary || mesh_.twin[h] == kNoHalfedge;
+        if (touches_boundary && cuts > 0) return false;
+        out.open = touches_boundary;
+        if (!out.open) {
+            // One border loop, walked around each head inside the region.
+            const auto on_border = [&](Index h) { return cut_[h] || !mark_[MeshView::face(mesh_.twin[h])]; };
+            const Index first = *std::min_element(border.begin(), border.end());
+            for (Index h = first;;) {
+                out.chain.push_back(h);
+                if (out.chain.size() > border.size()) return false;
+                Index n = MeshView::next(h);
+                for (int guard = 0; !on_border(n); ++guard) {
+                    if (guard > mesh_.n_halfedges()) return false;  // a guard: rotation always ends
+                    n = MeshView::next(mesh_.twin[n]);
+                }
+                h = n;
+                if (h == first) break;
+            }
+            if (out.chain.size() != border.size()) return false;
+        } else {
+            // Open: the inner border runs from the mesh boundary to the mesh boundary.
+            std::vector<Index> inner;
+            for (Index h : border)
+                if (mesh_.twin[h] != kNoHalfedge) inner.push_back(h);
+            if (inner.empty()) return false;
+            std::sort(inner.begin(), inner.end(), [&](Index a, Index b) { return mesh_.tail(a) < mesh_.tail(b); });
+            for (std::size_t i = 1; i < inner.size(); ++i)
+                if (mesh_.tail(inner[i]) == mesh_.tail(inner[i - 1])) return false;
+            const auto starting_at = [&](Index v) -> Index {
+                auto it = std::lower_bound(inner.begin(), inner.end(), v,
+                                           [&](Index h, Index x) { return mesh_.tail(h) < x; });
+                return it != inner.end() && mesh_.tail(*it) == v ? *it : kNoHalfedge;
+            };
             std::vector<Index> heads;
             for (Index h : inner) heads.push_back(mesh_.head(h));
             std::sort(heads.begin(), heads.end());
-            first = kNoHalfedge;
+            Index first = kNoHalfedge;
             for (Index h : inner)
                 if (!std::binary_search(heads.begin(), heads.end(), mesh_.tail(h))) {
-                    if (first != kNoHalfedge) return false;  // several pieces
+                    if (first != kNoHalfedge) return false;
                     first = h;
                 }
             if (first == kNoHalfedge) return false;
-        }
-        for (Index h = first;;) {
-            fan.chain.push_back(h);
-            if (fan.chain.size() > inner.size()) return false;
-            h = starting_at(mesh_.head(h));
-            if (h == kNoHalfedge) {
-                if (!fan.open) return false;
-                break;
+            for (Index h = first; h != kNoHalfedge; h = starting_at(mesh_.head(h))) {
+                out.chain.push_back(h);
+                if (out.chain.size() > inner.size()) return false;
             }
-            if (h == first) {
-                if (fan.open) return false;
-                break;
-            }
+            if (out.chain.size() != inner.size()) return false;
         }
-        if (fan.chain.size() != inner.size()) return false;  // several loops
+        for (Index h : out.chain) {
+            out.point_image.push_back(corner_image(MeshView::face(h), h % 3));
+            chain_stamp_[mesh_.tail(h)] = generation_;
+        }
+        if (out.open) {
+            const Index last = out.chain.back();
+            out.point_image.push_back(corner_image(MeshView::face(last), (last % 3 + 1) % 3));
+            chain_stamp_[mesh_.head(last)] = generation_;
+        }
+        // Interior vertices (their images agree on every face around them); a disk has
+        // V - E + F = 1, counted on the cut-open region (the border contributes L - L).
+        std::vector<Index> interior;
+        for (Index f : out.faces)
+            for (int k = 0; k < 3; ++k) {
+                const Index v = mesh_.F(f, k);
+                if (is_chain(v)) continue;
+                if (stamp_[v] != generation_) interior.push_back(v);
+                set_image(v, corner_image(f, k));
+            }
+        const Index outer_edges = out.open ? static_cast<Index>(border.size() - out.chain.size()) : 0;
+        {
+            // Disk test: interior vertices - interior edges + faces = 1 (closed; the border
+            // loop adds as many points as edges). Open: the boundary path's vertices and
+            // edges count too, with one point more than edges on the chain.
+            Index chi = static_cast<Index>(interior.size()) - interior_halfedges / 2 + static_cast<Index>(out.faces.size());
+            if (out.open) chi += 1 - outer_edges;  // chain: L + 1 points, L edges; boundary path: its own
+            if (chi != 1) return false;
+        }
 
-        // Centre candidates: the zero's estimate first, then (a poor estimate, an artifact)
-        // the star's interior vertices and face centroids, whose images tile the star's image.
-        std::vector<Candidate> candidates;
-        if (fan.open) {
-            // On the boundary: the region's boundary vertices, nearest the zero's point first.
-            const Eigen::RowVector3d target = zero_point(region);
-            std::vector<std::pair<double, Index>> order;
-            for (Index h : outer) {
-                const Index v = mesh_.tail(h);
-                if (v == mesh_.tail(fan.chain.front()) || v == mesh_.head(fan.chain.back())) continue;
-                order.emplace_back((mesh_.V.row(v) - target).squaredNorm(), v);
+        // Closed: the chain turns 1 + (index inside) times, which must be order + 1.
+        if (!out.open) {
+            int index = 0;
+            for (Index f : out.faces) index += flip_[f];
+            for (Index v : interior) index += winding_[v] - 1;
+            if (index != group.order) return false;
+        }
+
+        // A fold needs no centre: its border is then a simple polygon to clip.
+        if (!out.open && group.order == 0) {
+            std::vector<Index> ids(out.point_image.size());
+            for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<Index>(i);
+            if (polygon_is_simple(out.point_image) && ear_clip(ids, out.point_image, out.triangles) &&
+                triangles_are_valid(out, diagnosis))
+                return true;
+            out.triangles.clear();
+        }
+        const std::vector<Candidate> candidates = centre_candidates(group, out);
+        int searches = 0;  // sector searches are the costly part: a few centres only
+        for (std::size_t c = 0; c < candidates.size(); ++c) {
+            out.triangles.clear();
+            if (!triangulate_around(candidates[c], group.order, out, c == 0 ? &diagnosis : nullptr, searches))
+                continue;
+            out.has_centre = true;
+            out.centre = candidates[c].vertex;
+            out.centre_image = candidates[c].image;
+            out.centre_position = candidates[c].position;
+            if (triangles_are_valid(out, diagnosis)) return true;
+            out.has_centre = false;
+        }
+        out.triangles.clear();
+        return false;
+    }
+
+    static bool polygon_is_simple(const std::vector<Complex>& p) {
+        const std::size_t n = p.size();
+        if (n < 3) return false;
+        double extent = 0, area = 0;
+        for (std::size_t i = 0; i < n; ++i) {
+            extent = std::max(extent, std::abs(p[i] - p[0]));
+            area += cross(p[i], p[(i + 1) % n]);
+        }
+        if (!(area > 0)) return false;
+        const double tol = kTouchTol * extent;
+        for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t j = i + 2; j < n; ++j) {
+                if (i == 0 && j == n - 1) continue;  // adjacent through the wrap
+                if (segments_touch(p[i], p[(i + 1) % n], p[j], p[(j + 1) % n], tol)) return false;
             }
-            std::sort(order.begin(), order.end());
-            for (const auto& [d, v] : order) candidates.push_back({v, image_[v], mesh_.V.row(v)});
+        return true;
+    }
+
+    std::vector<Candidate> centre_candidates(const Group& group, const Retriangulation& out) const {
+        std::vector<Candidate> candidates;
+        Eigen::RowVector3d target = Eigen::RowVector3d::Zero();
+        int zero_members = 0;
+        for (Index r : group.members) {
+            const ZeroRegion& region = regions_[r];
+            if (region.order <= 0 && group.order > 0) continue;
+            target += zero_point(region);
+            ++zero_members;
+            if (out.open) continue;
+            if (region.vertex >= 0 && stamp_[region.vertex] == generation_)
+                candidates.push_back({region.vertex, image_[region.vertex], mesh_.V.row(region.vertex)});
+            if (region.face >= 0 && mark_[region.face])
+                candidates.push_back({-1, corner_image(region.face, 0) + region.image_offset, zero_point(region)});
+        }
+        if (zero_members > 0) {
+            target /= zero_members;
         } else {
-            if (region.face >= 0 && stamp_[mesh_.F(region.face, 0)] == generation_)
-                candidates.push_back({-1, image_[mesh_.F(region.face, 0)] + region.image_offset, zero_point(region)});
-            if (region.vertex >= 0) candidates.push_back({region.vertex, image_[region.vertex], mesh_.V.row(region.vertex)});
-            for (Index f : fan.region_faces) {
+            for (Index f : out.faces)
+                for (int k = 0; k < 3; ++k) target += mesh_.V.row(mesh_.F(f, k));
+            target /= 3.0 * static_cast<double>(out.faces.size());
+        }
+        std::vector<std::pair<double, Candidate>> rest;
+        if (out.open) {
+            // On the boundary: the region's boundary vertices other than the chain's ends.
+            for (Index f : out.faces)
+                for (int k = 0; k < 3; ++k) {
+                    const Index h = 3 * f + k;
+                    if (mesh_.twin[h] != kNoHalfedge) continue;
+                    const Index v = mesh_.tail(h);
+                    if (v == mesh_.tail(out.chain.front()) || v == mesh_.head(out.chain.back())) continue;
+                    rest.push_back({(mesh_.V.row(v) - target).squaredNorm(), {v, image_[v], mesh_.V.row(v)}});
+                }
+        } else {
+            // Interior vertices and face centroids, nearest the zero first.
+            for (Index f : out.faces) {
                 Complex p = 0;
                 Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
                 for (int k = 0; k < 3; ++k) {
                     const Index v = mesh_.F(f, k);
                     p += image_[v] / 3.0;
                     x += mesh_.V.row(v) / 3.0;
-                    if (!is_boundary_vertex_[v]) candidates.push_back({v, image_[v], mesh_.V.row(v)});
+                    if (!boundary_[v] && !is_chain(v))
+                        rest.push_back({(mesh_.V.row(v) - target).squaredNorm(), {v, image_[v], mesh_.V.row(v)}});
                 }
-                candidates.push_back({-1, p, x});
+                rest.push_back({(x - target).squaredNorm(), {-1, p, x}});
             }
         }
-        for (const Candidate& c : candidates) {
-            if (!fan_is_valid(region, fan, c)) continue;
-            fan.centre = c.vertex;
-            fan.centre_image = c.image;
-            fan.centre_position = c.position;
-            for (Index h : fan.chain) fan.chain_tail_image.push_back(image_[mesh_.tail(h)]);
-            fan.last_head_image = image_[mesh_.head(fan.chain.back())];
+        std::stable_sort(rest.begin(), rest.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (const auto& [d, c] : rest) {
+            const bool seen = c.vertex >= 0 && std::any_of(candidates.begin(), candidates.end(),
+                                                           [&](const Candidate& x) { return x.vertex == c.vertex; });
+            if (!seen) candidates.push_back(c);
+        }
+        return candidates;
+    }
+
+    // Triangles joining the chain's points and the centre: a fan where the chain is
+    // star-shaped around it, else sectors between spokes (each a simple counter-clockwise
+    // polygon, clipped into ears) found by a longest-path search over the spokes. The centre
+    // then winds order + 1 times (half-turns on the boundary).
+    bool triangulate_around(const Candidate& c, int order, Retriangulation& out, Diagnosis* diagnosis,
+                            int& searches) const {
+        const std::vector<Complex>& pts = out.point_image;
+        const Index np = static_cast<Index>(pts.size());
+        const Index n = static_cast<Index>(out.chain.size());  // arc edges; point i + 1 follows i
+        // Most candidates fail: cheap tests first (no hypot, no atan2 until a fan or a sector
+        // search can still follow).
+        double extent2 = 0;
+        for (const Complex& p : pts) extent2 = std::max(extent2, std::norm(p - c.image));
+        if (!(extent2 > 0)) return false;
+        const double tol = kTouchTol * std::sqrt(extent2);
+        if (c.vertex >= 0 && is_chain(c.vertex)) return false;
+        for (const Complex& p : pts)
+            if (std::norm(p - c.image) <= tol * tol) return false;
+        const auto point = [&](Index i) { return pts[out.open ? i : i % np]; };
+        bool fan = true;
+        for (Index i = 0; i < n && fan; ++i) fan = ccw(c.image, point(i), point(i + 1));
+        const int search_cap = n > kLongChain ? 2 : kMaxSearches;
+        if (!fan && !diagnosis && (n > kMaxSectorChain || searches >= search_cap)) return false;
+        // Unwrapped angles of the points around the centre.
+        std::vector<double> theta(n + 1);
+        theta[0] = 0;
+        for (Index i = 0; i < n; ++i) theta[i + 1] = theta[i] + corner_angle(point(i) - c.image, point(i + 1) - c.image);
+        const double turns = theta[n] / (out.open ? std::numbers::pi : 2 * std::numbers::pi);
+        if (std::lround(turns) != order + 1 || std::abs(turns - (order + 1)) > 0.25) return false;
+
+        if (fan) {
+            for (Index i = 0; i < n; ++i) out.triangles.push_back({kCentre, i % np, (i + 1) % np});
             return true;
+        }
+        if (diagnosis)
+            for (Index i = 0; i < n; ++i)
+                if (!ccw(c.image, point(i), point(i + 1))) {
+                    diagnosis->bad_vertices.push_back(vertex_of(out, i));
+                    diagnosis->bad_vertices.push_back(vertex_of(out, i + 1));
+                }
+
+        if (n > kMaxSectorChain || ++searches > search_cap) return false;
+        // Starts: the open chain's first point; on a closed chain the points nearest the centre.
+        std::vector<Index> starts;
+        if (out.open) {
+            starts.push_back(0);
+        } else {
+            std::vector<std::pair<double, Index>> near;
+            for (Index i = 0; i < np; ++i) near.push_back({std::abs(pts[i] - c.image), i});
+            std::sort(near.begin(), near.end());
+            for (Index i = 0; i < std::min<Index>(np, n > kLongChain ? 1 : kMaxStarts); ++i) starts.push_back(near[i].second);
+        }
+        // Per start: the chain's points from it, and per arc edge e (per point j) whether an
+        // earlier arc edge t in [i, e - 2] touches it (touches the spoke from j, t in [i, j - 2]).
+        // Sectors from i are tried with i rising, so each list is tested downwards once, only as
+        // far as some sector reaches back: linear in the chain times a sector's length.
+        struct Hits {
+            Index lowest_tested, hit;  // tests done down to lowest_tested; the highest hit, or -1
+        };
+        std::vector<Complex> rel(n + 1);
+        std::vector<Hits> arc(n), spoke(n + 1);
+        std::vector<Index> best(n + 1), from(n + 1);
+        for (Index s : starts) {
+            // Sector (i, j) is valid when polygon (centre, point s+i, ..., point s+j) is simple and
+            // counter-clockwise; best[j]: most spokes from 0 to j (closest to a fan), rows taken
+            // in order so each is final before it extends, and rows 0 cannot reach are skipped.
+            for (Index i = 0; i <= n; ++i) rel[i] = point(out.open ? i : (s + i) % np);
+            const auto at = [&](Index i) { return rel[i]; };
+            const auto ang = [&](Index i) { return out.open ? theta[i] : theta_from(theta, s, i, n); };
+            for (Index e = 0; e < n; ++e) arc[e] = {e - 1, -1};
+            for (Index j = 0; j <= n; ++j) spoke[j] = {j - 1, -1};
+            std::fill(best.begin(), best.end(), -1);
+            std::fill(from.begin(), from.end(), -1);
+            best[0] = 0;
+            // Is there a t in [i, top] with touches(t)? Tests go downwards and stop at the first hit.
+            const auto hit_from = [&](Hits& h, Index i, const auto& touches) {
+                if (h.hit >= 0) return h.hit >= i;
+                while (h.lowest_tested > i) {
+                    const Index t = --h.lowest_tested;
+                    if (touches(t)) {
+                        h.hit = t;
+                        return true;
+                    }
+                }
+                return false;
+            };
+            const auto arc_hit = [&](Index e, Index i) {
+                return hit_from(arc[e], i, [&](Index t) { return segments_touch(at(t), at(t + 1), at(e), at(e + 1), tol); });
+            };
+            const auto spoke_hit = [&](Index j, Index i) {
+                return hit_from(spoke[j], i, [&](Index t) { return segments_touch(at(t), at(t + 1), at(j), c.image, tol); });
+            };
+            for (Index i = 0; i < n; ++i) {
+                if (best[i] < 0) continue;
+                const Complex a = at(i);
+                double arc_area = 0;
+                for (Index j = i + 1; j <= n; ++j) {
+                    const Complex p = at(j - 1), q = at(j);
+                    arc_area += cross(p, q);
+                    // The new arc edge p q against the earlier ones and the first spoke.
+                    if (arc_hit(j - 1, i)) break;
+                    if (j - 1 > i && segments_touch(c.image, a, p, q, tol)) break;
+                    const double alpha = ang(j) - ang(i);
+                    if (alpha >= 2 * std::numbers::pi - 1e-9) break;
+                    if (alpha <= 1e-9) continue;
+                    // The closing spoke q -> centre against the arc's other edges.
+                    if (spoke_hit(j, i)) continue;
+                    if (cross(c.image, a) + cross(q, c.image) + arc_area > 0 && best[i] + 1 > best[j])
+                        best[j] = best[i] + 1, from[j] = i;
+                }
+            }
+            if (best[n] < 0) continue;
+            std::vector<Index> spokes{n};
+            while (spokes.back() != 0) spokes.push_back(from[spokes.back()]);
+            std::reverse(spokes.begin(), spokes.end());
+            bool clipped = true;
+            for (std::size_t k = 0; k + 1 < spokes.size() && clipped; ++k) {
+                std::vector<Index> ids{kCentre};
+                std::vector<Complex> pos{c.image};
+                for (Index t = spokes[k]; t <= spokes[k + 1]; ++t) {
+                    ids.push_back(out.open ? t : (s + t) % np);
+                    pos.push_back(at(t));
+                }
+                clipped = ear_clip(ids, pos, out.triangles);
+            }
+            if (clipped) return true;
+            out.triangles.clear();
         }
         return false;
     }
 
-    bool fan_is_valid(const ZeroRegion& region, const Fan& fan, const Candidate& c) const {
-        if (c.vertex >= 0)
-            for (Index h : fan.chain)
-                if (mesh_.tail(h) == c.vertex || mesh_.head(h) == c.vertex) return false;
-        const Complex p = c.image;
-        const Eigen::RowVector3d& x0 = c.position;
-        double turning = 0;
-        for (Index h : fan.chain) {
-            const Complex a = image_[mesh_.tail(h)] - p, b = image_[mesh_.head(h)] - p;
-            if (!(cross(a, b) > kOrientationTol * (std::norm(a) + std::norm(b)))) return false;
-            turning += std::atan2(cross(a, b), (std::conj(a) * b).real());
-            const Eigen::RowVector3d e1 = mesh_.V.row(mesh_.tail(h)) - x0, e2 = mesh_.V.row(mesh_.head(h)) - x0;
-            if (!(e1.cross(e2).norm() > 1e-12 * (e1.squaredNorm() + e2.squaredNorm()))) return false;
+    static double theta_from(const std::vector<double>& theta, Index s, Index i, Index n) {
+        // Angle of point s + i relative to point s, continuing past the chain's end.
+        const Index k = s + i;
+        return k <= n ? theta[k] - theta[s] : theta[n] + theta[k - n] - theta[s];
+    }
+
+    Index vertex_of(const Retriangulation& out, Index point) const {
+        const Index n = static_cast<Index>(out.chain.size());
+        if (out.open && point == n) return mesh_.head(out.chain.back());
+        return mesh_.tail(out.chain[point % n]);
+    }
+
+    // New triangles: counter-clockwise images, non-degenerate in 3D, and every chain point
+    // still winding once (its outside angles plus its new inside angles make 2 pi).
+    bool triangles_are_valid(const Retriangulation& out, Diagnosis& diagnosis) const {
+        const auto image = [&](Index p) { return p == kCentre ? out.centre_image : out.point_image[p]; };
+        const auto position = [&](Index p) -> Eigen::RowVector3d {
+            return p == kCentre ? out.centre_position : Eigen::RowVector3d(mesh_.V.row(vertex_of(out, p)));
+        };
+        std::vector<std::pair<Index, double>> inside;  // per chain point: its vertex, new angles
+        for (const auto& t : out.triangles) {
+            if (!ccw(image(t[0]), image(t[1]), image(t[2]))) return false;
+            const Eigen::RowVector3d e1 = position(t[1]) - position(t[0]), e2 = position(t[2]) - position(t[0]);
+            if (!(e1.cross(e2).norm() > kDegenerateTol * (e1.squaredNorm() + e2.squaredNorm()))) return false;
+            for (int k = 0; k < 3; ++k)
+                if (t[k] != kCentre)
+                    inside.emplace_back(vertex_of(out, t[k]), corner_angle(image(t[(k + 1) % 3]) - image(t[k]),
+                                                                          image(t[(k + 2) % 3]) - image(t[k])));
         }
-        // The centre must wind order + 1 times (half-turns on the boundary).
-        const double turns = turning / (fan.open ? std::numbers::pi : 2 * std::numbers::pi);
-        return std::lround(turns) == region.order + 1;
+        // No new edge may double an edge outside the region (or another new one): the mesh
+        // keeps one edge per vertex pair wherever its input had.
+        std::vector<std::pair<Index, Index>> pairs;
+        for (const auto& t : out.triangles)
+            for (int k = 0; k < 3; ++k) {
+                const Index a = t[k], b = t[(k + 1) % 3];
+                if (a != kCentre && b != kCentre && (out.open ? b == a + 1 : b == (a + 1) % static_cast<Index>(out.point_image.size())))
+                    continue;  // a chain edge
+                const Index va = a == kCentre ? out.centre : vertex_of(out, a), vb = b == kCentre ? out.centre : vertex_of(out, b);
+                if (va == vb) return false;
+                pairs.emplace_back(std::min(va, vb), std::max(va, vb));  // -1: a new centre
+                if (va < 0 || vb < 0) continue;  // a new centre has no edges outside
+                for (Index j = vf_.start[va]; j < vf_.start[va + 1]; ++j) {
+                    const Index f = vf_.faces[j];
+                    if (std::binary_search(out.faces.begin(), out.faces.end(), f)) continue;
+                    for (int i = 0; i < 3; ++i)
+                        if (mesh_.F(f, i) == vb) return false;
+                }
+            }
+        std::sort(pairs.begin(), pairs.end());
+        for (std::size_t i = 0; i + 2 < pairs.size(); ++i)
+            if (pairs[i] == pairs[i + 2]) return false;  // each inner edge shows up twice, once per side
+        // A vertex on a cut shows up twice: its angles add up over both.
+        std::sort(inside.begin(), inside.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        bool ok = true;
+        for (std::size_t i = 0; i < inside.size();) {
+            const Index v = inside[i].first;
+            double total = 0;
+            for (; i < inside.size() && inside[i].first == v; ++i) total += inside[i].second;
+            if (boundary_[v]) continue;
+            for (Index j = vf_.start[v]; j < vf_.start[v + 1]; ++j) {
+                const Index f = vf_.faces[j];
+                if (std::binary_search(out.faces.begin(), out.faces.end(), f)) continue;
+                for (int k = 0; k < 3; ++k)
+                    if (mesh_.F(f, k) == v) total += angle_[3 * f + k];
+            }
+            if (std::lround(total / (2 * std::numbers::pi)) != 1) {
+                diagnosis.bad_vertices.push_back(v);
+                ok = false;
+            }
+        }
+        return ok;
     }
 
     Eigen::RowVector3d zero_point(const ZeroRegion& region) const {
@@ -257,14 +907,117 @@ class FanBuilder {
     }
 
     const MeshView& mesh_;
-    const Eigen::VectorXcd& tau_;
+    std::span<const ZeroRegion> regions_;
     VertexFaces vf_;
-    std::vector<char> in_region_, used_;
-    std::vector<Index> stamp_;
-    std::vector<Complex> image_;
-    std::vector<char> is_boundary_vertex_;
+    std::vector<Complex> along_;
+    std::vector<double> angle_;
+    std::vector<int> flip_, winding_;
+    std::vector<char> boundary_;
+    std::vector<Index> owner_;
+    std::vector<char> mark_;
+    std::vector<Index> stamp_, chain_stamp_;
+    std::vector<Complex> image_, origin_;
+    std::vector<char> cut_;
     Index generation_ = 0;
+    Index face_cap_ = 0;
 };
+
+
+// Flipped image triangles that one edge flip repairs: where the image of the two faces across
+// an edge is a simple quadrilateral with the other diagonal inside, that diagonal gives two
+// counter-clockwise image triangles (the 3D triangles must stay non-degenerate and the new
+// edge must not double one). Vertices stay; flipped faces lose their input face (-1); faces
+// marked `keep` stay.
+struct Flipped {
+    MeshView mesh;
+    Eigen::VectorXcd tau;
+    std::vector<Index> original_face;
+    Index flips = 0;
+};
+
+Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std::vector<char>& keep) {
+    const Index nf = mesh.n_faces();
+    TriangleMatrix F = mesh.F;
+    std::vector<Index> twin = mesh.twin;
+    std::vector<Complex> along(mesh.n_halfedges());
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
+    Flipped out;
+    out.original_face.resize(nf);
+    for (Index f = 0; f < nf; ++f) out.original_face[f] = f;
+    const auto tail = [&](Index h) { return F(h / 3, h % 3); };
+    const auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
+    const auto flipped = [&](Index f) {
+        return !ccw(Complex(0), along[3 * f], -along[3 * f + 2]);
+    };
+    // Is there an edge between u and w? Walk around u both ways.
+    const auto adjacent = [&](Index h0, Index w) {  // h0 leaves the vertex
+        for (int dir = 0; dir < 2; ++dir) {
+            Index h = h0;  // leaves u
+            for (int guard = 0; guard < 1024; ++guard) {
+                if (head(h) == w) return true;
+                const Index t = dir == 0 ? twin[MeshView::prev(h)] : twin[h];
+                if (t == kNoHalfedge) break;
+                h = dir == 0 ? t : MeshView::next(t);
+                if (h == h0) return false;
+            }
+        }
+        return false;
+    };
+    std::vector<Index> queue;
+    for (Index f = 0; f < nf; ++f)
+        if (flipped(f)) queue.push_back(f);
+    std::vector<char> queued(nf, 0);
+    for (Index f : queue) queued[f] = 1;
+    const std::size_t limit = 16 * queue.size() + 64;  // flips only ever get fewer; a guard
+    for (std::size_t q = 0; q < queue.size() && q < limit; ++q) {
+        const Index f = queue[q];
+        queued[f] = 0;
+        if (!flipped(f) || keep[f]) continue;
+        for (int k = 0; k < 3; ++k) {
+            const Index h = 3 * f + k, t = twin[h];
+            if (t == kNoHalfedge) continue;
+            const Index g = t / 3;
+            if (keep[g]) continue;
+            // Quad a -> d -> b -> c: h = a->b in (a, b, c), t = b->a in (b, a, d).
+            const Index a = tail(h), b = head(h), c = head(MeshView::next(h)), d = head(MeshView::next(t));
+            if (c == d || a == b || adjacent(MeshView::prev(h), d)) continue;
+            const Complex ia = 0, ib = along[h], ic = ib + along[MeshView::next(h)], id = along[MeshView::next(t)];
+            // New faces (c, a, d) and (d, b, c).
+            if (!ccw(ic, ia, id) || !ccw(id, ib, ic)) continue;
+            const auto solid = [&](Index x, Index y, Index z) {
+                const Eigen::RowVector3d e1 = mesh.V.row(y) - mesh.V.row(x), e2 = mesh.V.row(z) - mesh.V.row(x);
+                return e1.cross(e2).norm() > kDegenerateTol * (e1.squaredNorm() + e2.squaredNorm());
+            };
+            if (!solid(c, a, d) || !solid(d, b, c)) continue;
+            // Outer halfedges keep their twins: c->a, a->d, d->b, b->c.
+            const Index ca = MeshView::prev(h), bc = MeshView::next(h), ad = MeshView::next(t), db = MeshView::prev(t);
+            const Index o_ca = twin[ca], o_bc = twin[bc], o_ad = twin[ad], o_db = twin[db];
+            const Complex v_ca = along[ca], v_bc = along[bc], v_ad = along[ad], v_db = along[db];
+            F.row(f) << c, a, d;
+            F.row(g) << d, b, c;
+            const Index n_ca = 3 * f, n_ad = 3 * f + 1, n_dc = 3 * f + 2;
+            const Index n_db = 3 * g, n_bc = 3 * g + 1, n_cd = 3 * g + 2;
+            const auto link = [&](Index x, Index y) {
+                twin[x] = y;
+                if (y != kNoHalfedge) twin[y] = x;
+            };
+            link(n_ca, o_ca), link(n_ad, o_ad), link(n_db, o_db), link(n_bc, o_bc), link(n_dc, n_cd);
+            along[n_ca] = v_ca, along[n_ad] = v_ad, along[n_db] = v_db, along[n_bc] = v_bc;
+            along[n_dc] = ic - id, along[n_cd] = id - ic;
+            out.original_face[f] = out.original_face[g] = -1;
+            ++out.flips;
+            for (Index x : {o_ca, o_ad, o_db, o_bc})
+                if (x != kNoHalfedge && !queued[x / 3] && flipped(x / 3)) queued[x / 3] = 1, queue.push_back(x / 3);
+            break;
+        }
+    }
+    out.mesh = make_mesh_view(mesh.V, std::move(F), std::move(twin));
+    out.tau.resize(out.mesh.n_edges());
+    for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along[out.mesh.edge_halfedge[e]];
+    return out;
+}
+
+RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions);
 
 }  // namespace
 
@@ -276,32 +1029,48 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
         HOLOFLOW_REQUIRE(r.vertex < mesh.n_vertices() && r.face < mesh.n_faces(), "region position out of range");
         HOLOFLOW_REQUIRE(!r.vertices.empty() || r.vertex >= 0 || r.face >= 0, "empty region");
     }
-    RegularisedForm out;
-    FanBuilder builder(mesh, tau);
-    std::vector<Fan> fans;
-    out.region_vertex.assign(regions.size(), -1);
-    std::vector<Index> fan_of_region(regions.size(), -1);
-    for (std::size_t r = 0; r < regions.size(); ++r) {
-        Fan fan;
-        if (builder.build(regions[r], fan)) {
-            builder.claim(fan);
-            fan_of_region[r] = static_cast<Index>(fans.size());
-            fans.push_back(std::move(fan));
-        } else {
-            ++out.failed_regions;
+    if (regions.empty()) return regularise_on(mesh, tau, regions);
+    // Edge flips first: they repair what they can without losing a vertex. A face holding a
+    // zero's point stays, the point is placed in it.
+    std::vector<char> keep(mesh.n_faces(), 0);
+    for (const ZeroRegion& r : regions)
+        if (r.face >= 0) keep[r.face] = 1;
+    const Flipped flipped = flip_folds(mesh, tau, keep);
+    std::vector<ZeroRegion> moved(regions.begin(), regions.end());
+    for (ZeroRegion& r : moved)
+        if (r.face >= 0 && flipped.original_face[r.face] < 0) {
+            for (int k = 0; k < 3; ++k) r.vertices.push_back(mesh.F(r.face, k));
+            r.face = -1;  // its triangle is gone: the region's vertices carry it
         }
-    }
+    RegularisedForm out = regularise_on(flipped.mesh, flipped.tau, moved);
+    for (Index& f : out.original_face)
+        if (f >= 0) f = flipped.original_face[f];
+    out.edge_flips = flipped.flips;
+    return out;
+}
 
-    // Faces and vertices that go: every star's faces; vertices not on a chain or a centre.
+namespace {
+
+RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions) {
+    RegularisedForm out;
+    Builder builder(mesh, tau, regions);
+    const std::vector<Group> groups = builder.run();
+    const std::vector<Complex>& along = builder.along();
+    std::vector<Index> accepted;
+    for (std::size_t g = 0; g < groups.size(); ++g)
+        if (groups[g].accepted && !groups[g].result.kept) accepted.push_back(static_cast<Index>(g));
+
+    // Faces and vertices that go: every region's faces; vertices not on a chain or a centre.
     std::vector<char> face_removed(mesh.n_faces(), 0), vertex_kept(mesh.n_vertices(), 1);
-    for (const Fan& fan : fans)
-        for (Index f : fan.region_faces) {
+    for (Index g : accepted)
+        for (Index f : groups[g].result.faces) {
             face_removed[f] = 1;
             for (int k = 0; k < 3; ++k) vertex_kept[mesh.F(f, k)] = 0;
         }
-    for (const Fan& fan : fans) {
-        for (Index h : fan.chain) vertex_kept[mesh.tail(h)] = vertex_kept[mesh.head(h)] = 1;
-        if (fan.centre >= 0) vertex_kept[fan.centre] = 1;
+    for (Index g : accepted) {
+        const Retriangulation& r = groups[g].result;
+        for (Index h : r.chain) vertex_kept[mesh.tail(h)] = vertex_kept[mesh.head(h)] = 1;
+        if (r.has_centre && r.centre >= 0) vertex_kept[r.centre] = 1;
     }
     std::vector<Index> new_vertex(mesh.n_vertices(), -1);
     for (Index v = 0; v < mesh.n_vertices(); ++v) {
@@ -312,12 +1081,14 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
         new_vertex[v] = static_cast<Index>(out.original_vertex.size());
         out.original_vertex.push_back(v);
     }
-    std::vector<Index> centre_vertex(fans.size());
-    for (std::size_t i = 0; i < fans.size(); ++i) {
-        if (fans[i].centre >= 0) {
-            centre_vertex[i] = new_vertex[fans[i].centre];
+    std::vector<Index> centre_vertex(groups.size(), -1);
+    for (Index g : accepted) {
+        const Retriangulation& r = groups[g].result;
+        if (!r.has_centre) continue;
+        if (r.centre >= 0) {
+            centre_vertex[g] = new_vertex[r.centre];
         } else {
-            centre_vertex[i] = static_cast<Index>(out.original_vertex.size());
+            centre_vertex[g] = static_cast<Index>(out.original_vertex.size());
             out.original_vertex.push_back(-1);
         }
     }
@@ -325,45 +1096,58 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     PointMatrix V(nv, 3);
     for (Index v = 0; v < mesh.n_vertices(); ++v)
         if (new_vertex[v] >= 0) V.row(new_vertex[v]) = mesh.V.row(v);
-    for (std::size_t i = 0; i < fans.size(); ++i) V.row(centre_vertex[i]) = fans[i].centre_position;
+    for (Index g : accepted)
+        if (groups[g].result.has_centre) V.row(centre_vertex[g]) = groups[g].result.centre_position;
 
-    // Kept faces first (in order), then the fans; twins rebuilt through the old pairing.
+    // Kept faces first (in order), then each region's triangles; twins through the old pairing
+    // on the chains, through shared point pairs inside a region.
     Index nf = 0;
     std::vector<Index> new_face(mesh.n_faces(), -1);
     for (Index f = 0; f < mesh.n_faces(); ++f)
         if (!face_removed[f]) new_face[f] = nf++;
-    Index fan_faces = 0;
-    for (const Fan& fan : fans) fan_faces += static_cast<Index>(fan.chain.size());
-    TriangleMatrix F(nf + fan_faces, 3);
-    std::vector<Index> twin(3 * static_cast<std::size_t>(nf + fan_faces), kNoHalfedge);
+    Index region_faces = 0;
+    for (Index g : accepted) region_faces += static_cast<Index>(groups[g].result.triangles.size());
+    TriangleMatrix F(nf + region_faces, 3);
+    std::vector<Index> twin(3 * static_cast<std::size_t>(nf + region_faces), kNoHalfedge);
     std::vector<Complex> along_new(twin.size());
-    std::vector<Index> chain_owner(mesh.n_halfedges(), -1);  // old chain halfedge -> new fan halfedge
-    out.original_face.assign(nf + fan_faces, -1);
+    std::vector<Index> chain_owner(mesh.n_halfedges(), -1);  // old chain halfedge -> new halfedge
+    out.original_face.assign(nf + region_faces, -1);
     Index next_face = nf;
-    for (std::size_t i = 0; i < fans.size(); ++i) {
-        const Fan& fan = fans[i];
-        const Index c = centre_vertex[i];
-        const Index first_face = next_face;
-        const std::size_t n = fan.chain.size();
-        for (std::size_t j = 0; j < n; ++j) {
-            const Index h = fan.chain[j], f = next_face++;
-            F.row(f) << c, new_vertex[mesh.tail(h)], new_vertex[mesh.head(h)];
-            const Complex a = fan.chain_tail_image[j];
-            const Complex b = j + 1 < n ? fan.chain_tail_image[j + 1] : fan.last_head_image;
-            along_new[3 * f] = a - fan.centre_image;
-            along_new[3 * f + 1] = form_along(mesh, tau, h);
-            along_new[3 * f + 2] = fan.centre_image - b;
-            chain_owner[h] = 3 * f + 1;
-            if (j > 0) {
-                twin[3 * f] = 3 * (f - 1) + 2;
-                twin[3 * (f - 1) + 2] = 3 * f;
+    for (Index g : accepted) {
+        const Retriangulation& r = groups[g].result;
+        const Index n = static_cast<Index>(r.chain.size()), np = static_cast<Index>(r.point_image.size());
+        const auto vertex = [&](Index p) {
+            if (p == kCentre) return centre_vertex[g];
+            return new_vertex[r.open && p == n ? mesh.head(r.chain.back()) : mesh.tail(r.chain[p])];
+        };
+        const auto image = [&](Index p) { return p == kCentre ? r.centre_image : r.point_image[p]; };
+        std::map<std::pair<Index, Index>, Index> open_edges;  // (from, to) point ids -> halfedge
+        for (const auto& t : r.triangles) {
+            const Index f = next_face++;
+            for (int k = 0; k < 3; ++k) {
+                const Index a = t[k], b = t[(k + 1) % 3], h = 3 * f + k;
+                F(f, k) = vertex(a);
+                // Point a then b along the chain is chain halfedge a.
+                const bool chain_edge = a != kCentre && b != kCentre && (r.open ? b == a + 1 : b == (a + 1) % np);
+                if (chain_edge) {
+                    along_new[h] = along[r.chain[a]];
+                    chain_owner[r.chain[a]] = h;
+                    continue;
+                }
+                along_new[h] = image(b) - image(a);
+                if (auto it = open_edges.find({b, a}); it != open_edges.end()) {
+                    twin[h] = it->second;
+                    twin[it->second] = h;
+                    open_edges.erase(it);
+                } else {
+                    open_edges[{a, b}] = h;
+                }
             }
         }
-        if (!fan.open) {
-            const Index last = next_face - 1;
-            twin[3 * first_face] = 3 * last + 2;
-            twin[3 * last + 2] = 3 * first_face;
-        }
+        // What is left open are the spokes to the mesh boundary (open chains).
+        for (const auto& [key, h] : open_edges)
+            HOLOFLOW_REQUIRE(r.open && (key.first == kCentre || key.second == kCentre),
+                             "re-triangulated region is not closed");
     }
     for (Index f = 0; f < mesh.n_faces(); ++f) {
         if (face_removed[f]) continue;
@@ -372,7 +1156,7 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
         for (int k = 0; k < 3; ++k) {
             const Index h = 3 * f + k;
             F(g, k) = new_vertex[mesh.F(f, k)];
-            along_new[3 * g + k] = form_along(mesh, tau, h);
+            along_new[3 * g + k] = along[h];
             const Index t = mesh.twin[h];
             if (t == kNoHalfedge) continue;
             if (!face_removed[MeshView::face(t)]) {
@@ -384,19 +1168,45 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
             }
         }
     }
-    // Two fans whose stars touch along an edge: their chain halfedges pair up directly.
-    for (const Fan& fan : fans)
-        for (Index h : fan.chain) {
+    // Two regions touching along an edge: their chain halfedges pair up directly.
+    for (Index g : accepted)
+        for (Index h : groups[g].result.chain) {
             const Index t = mesh.twin[h];
             if (t != kNoHalfedge && chain_owner[t] >= 0) twin[chain_owner[h]] = chain_owner[t];
         }
-    for (std::size_t r = 0; r < regions.size(); ++r)
-        if (fan_of_region[r] >= 0) out.region_vertex[r] = centre_vertex[fan_of_region[r]];
+
+    out.region_vertex.assign(regions.size(), -1);
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+        // Follow absorptions to the region that was re-triangulated.
+        Index root = static_cast<Index>(g);
+        while (groups[root].absorbed_into >= 0) root = groups[root].absorbed_into;
+        if (!groups[root].accepted) continue;
+        const Retriangulation& r = groups[root].result;
+        const Index v = r.kept         ? new_vertex[r.centre]
+                        : r.has_centre ? centre_vertex[root]
+                                       : new_vertex[mesh.tail(r.chain.front())];
+        for (Index member : groups[root].members) out.region_vertex[member] = v;
+    }
+    for (std::size_t r = 0; r < regions.size(); ++r) {
+        if (out.region_vertex[r] < 0) ++out.failed_regions;
+        else if (groups[r].absorbed_into >= 0) ++out.merged_regions;
+    }
 
     out.mesh = make_mesh_view(std::move(V), std::move(F), std::move(twin));
     out.tau.resize(out.mesh.n_edges());
     for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along_new[out.mesh.edge_halfedge[e]];
+
+    // What is left: flipped image triangles anywhere (failed regions, or none).
+    for (Index f = 0; f < out.mesh.n_faces(); ++f) {
+        double sum = 0;
+        for (int k = 0; k < 3; ++k) {
+            const Index h = 3 * f + k;
+            sum += corner_angle(along_new[h], -along_new[MeshView::prev(h)]);
+        }
+        out.flipped_faces += std::lround((std::numbers::pi - sum) / (2 * std::numbers::pi)) != 0;
+    }
     return out;
 }
 
+}  // namespace
 }  // namespace holoflow::kernels

@@ -4,12 +4,9 @@
 #include <cmath>
 #include <numbers>
 
-#include <Eigen/Dense>
-
-#include <Eigen/Geometry>
-
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/intrinsic_delaunay.h"
 #include "holoflow/kernels/parallel.h"
 #include "holoflow/kernels/union_find.h"
 
@@ -36,85 +33,9 @@ double corner_angle(Complex from, Complex to) {
     return std::atan2(r.imag(), r.real());
 }
 
-// Critical point of the quadratic through the face's three images, laid out isometrically.
-// Returns false when the images are (nearly) affine: no critical point to speak of.
-bool quadratic_critical_point(const MeshView& mesh, const Eigen::VectorXcd& tau, Index f,
-                              std::array<double, 3>& barycentric, Complex& image_offset) {
-    const Eigen::RowVector3d p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)),
-                             p2 = mesh.V.row(mesh.F(f, 2));
-    const double a = (p1 - p0).norm();
-    if (!(a > 0)) return false;
-    const double x2 = (p2 - p0).dot(p1 - p0) / a;
-    const double y2 = (p1 - p0).cross(p2 - p0).norm() / a;
-    const Complex z1(a, 0), z2(x2, y2);
-    const Complex w1 = image_direction(mesh, tau, 3 * f), w2 = -image_direction(mesh, tau, 3 * f + 2);
-    // A z^2 + B z = w at z1, z2 (C = 0 at corner 0).
-    const Complex det = z1 * z1 * z2 - z2 * z2 * z1;
-    if (std::abs(det) == 0) return false;
-    const Complex A = (w1 * z2 - w2 * z1) / det;
-    const Complex B = (z1 * z1 * w2 - z2 * z2 * w1) / det;
-    if (!(std::abs(A) * (a * a + std::norm(z2)) > 1e-9 * (std::abs(w1) + std::abs(w2)))) return false;
-    const Complex z = -B / (2.0 * A);
-    image_offset = -B * B / (4.0 * A);
-    // Barycentric of z in (0, z1, z2).
-    const double area2 = a * y2;
-    const double b2 = z.imag() * a / area2;
-    const double b1 = (z.real() * y2 - z.imag() * x2) / area2;
-    barycentric = {1 - b1 - b2, b1, b2};
-    return std::isfinite(b1) && std::isfinite(b2) && std::isfinite(image_offset.real()) &&
-           std::isfinite(image_offset.imag());
-}
-
-Zero place_zero(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroCluster& cluster,
-                const std::vector<int>& winding) {
-    Zero zero;
-    zero.order = cluster.index;
-    // A lone vertex winding k + 1 times is the zero itself.
-    if (cluster.flipped_faces.empty()) {
-        Index best = cluster.vertices.front();
-        for (Index v : cluster.vertices)
-            if (winding[v] > winding[best]) best = v;
-        zero.vertex = best;
-        return zero;
-    }
-    // Otherwise the flipped face whose quadratic critical point lies deepest inside it.
-    double best_depth = -std::numeric_limits<double>::infinity();
-    for (Index f : cluster.flipped_faces) {
-        std::array<double, 3> bary;
-        Complex offset;
-        if (!quadratic_critical_point(mesh, tau, f, bary, offset)) continue;
-        const double depth = std::min({bary[0], bary[1], bary[2]});
-        if (depth > best_depth) {
-            best_depth = depth;
-            zero.face = f;
-            zero.barycentric = bary;
-            zero.image_offset = offset;
-        }
-    }
-    if (zero.face >= 0 && best_depth >= -1e-9) {
-        for (double& b : zero.barycentric) b = std::max(b, 0.0);
-        const double sum = zero.barycentric[0] + zero.barycentric[1] + zero.barycentric[2];
-        for (double& b : zero.barycentric) b /= sum;
-        return zero;
-    }
-    // No fit inside its face: the first flipped face's centroid, image by linear interpolation.
-    const Index f = cluster.flipped_faces.front();
-    zero = Zero{};
-    zero.order = cluster.index;
-    zero.face = f;
-    zero.barycentric = {1.0 / 3, 1.0 / 3, 1.0 / 3};
-    zero.image_offset = (image_direction(mesh, tau, 3 * f) - image_direction(mesh, tau, 3 * f + 2)) / 3.0;
-    return zero;
-}
-
-}  // namespace
-
-ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau) {
-    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
-    HOLOFLOW_REQUIRE(tau.allFinite(), "form has non-finite values");
-    HOLOFLOW_REQUIRE(mesh.is_closed(), "zero bookkeeping needs a closed surface");
+// Image windings and flips of the mesh's piecewise linear image.
+void count_windings(const MeshView& mesh, const Eigen::VectorXcd& tau, ZeroSet& z) {
     const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
-    ZeroSet z;
     z.face_flip.assign(nf, 0);
     std::vector<double> angle(3 * static_cast<std::size_t>(nf));
     par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
@@ -135,51 +56,174 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau) {
     std::vector<double> vertex_angle(nv, 0.0);
     for (Index h = 0; h < mesh.n_halfedges(); ++h) vertex_angle[mesh.tail(h)] += angle[h];
     z.winding.resize(nv);
-    for (Index v = 0; v < nv; ++v)
-        z.winding[v] = static_cast<int>(std::lround(vertex_angle[v] / (2 * std::numbers::pi)));
-
-    // Cluster vertices with w != 1 and the corners of flipped faces.
-    std::vector<char> special(nv, 0);
-    UnionFind uf(nv);
     for (Index v = 0; v < nv; ++v) {
-        special[v] = z.winding[v] != 1;
+        z.winding[v] = static_cast<int>(std::lround(vertex_angle[v] / (2 * std::numbers::pi)));
         z.total_index += z.winding[v] - 1;
         z.nonpositive_winding_vertices += z.winding[v] <= 0;
     }
-    for (Index f = 0; f < nf; ++f) {
-        if (!z.face_flip[f]) continue;
-        z.total_index += z.face_flip[f];
-        for (int k = 0; k < 3; ++k) {
-            special[mesh.F(f, k)] = 1;
-            uf.unite(mesh.F(f, k), mesh.F(f, (k + 1) % 3));
+    for (Index f = 0; f < nf; ++f) z.total_index += z.face_flip[f];
+}
+
+// Saddle orders m_v of u on triangulation t, du = Re tau and dv = Im tau on its edges. Each
+// halfedge gets a sign (u(head) > u(tail) after symbolic perturbation); a corner changes sign
+// when its two edges' signs from the corner differ. A face whose three halfedges all carry the
+// same sign (only through rounding of a closed form near 0) has three changes; it adds -1 to
+// its corner 0 so the total stays exact.
+std::vector<int> count_saddles(const MeshView& t, const Eigen::VectorXd& du, const Eigen::VectorXd& dv) {
+    const Index nv = t.n_vertices();
+    std::vector<double> key(nv);
+    for (Index v = 0; v < nv; ++v)
+        key[v] = t.V(v, 0) + 0.3719 * t.V(v, 1) + 0.6113 * t.V(v, 2);  // generic direction
+    const auto rising = [&](Index h) {
+        const Index e = t.halfedge_edge[h];
+        const double s = t.edge_sign(h);
+        if (du(e) != 0) return s * du(e) > 0;
+        if (dv(e) != 0) return s * dv(e) > 0;
+        const Index a = t.tail(h), b = t.head(h);
+        if (key[a] != key[b]) return key[b] > key[a];
+        if (a != b) return b > a;
+        return s > 0;
+    };
+    std::vector<int> changes(nv, 0);
+    std::vector<int> cyclic(nv, 0);
+    for (Index f = 0; f < t.n_faces(); ++f) {
+        const bool r[3] = {rising(3 * f), rising(3 * f + 1), rising(3 * f + 2)};
+        for (int k = 0; k < 3; ++k)
+            if (r[k] == r[(k + 2) % 3]) ++changes[t.F(f, k)];  // out edge k, in edge k - 1
+        if (r[0] == r[1] && r[1] == r[2]) ++cyclic[t.F(f, 0)];
+    }
+    std::vector<int> m(nv);
+    for (Index v = 0; v < nv; ++v) m[v] = changes[v] / 2 - 1 - cyclic[v];
+    // A vertex with a single outgoing halfedge lies inside a folded triangle: harmonicity forces
+    // u there to its neighbour's value, its link cannot change sign, and its -1 belongs to the
+    // neighbour's count (the pair is one point of the smooth picture).
+    for (Index v = 0; v < nv; ++v) {
+        const Index h = t.vertex_halfedge[v];
+        if (h == kNoHalfedge || t.rotate(h) != h || t.head(h) == v) continue;
+        m[t.head(h)] += m[v];
+        m[v] = 0;
+    }
+    return m;
+}
+
+// Mesh adjacency between special vertices, CSR (mesh edges, plus intrinsic edges between
+// saddle vertices so that a saddle group split by an intrinsic edge stays one group).
+struct Adjacency {
+    std::vector<Index> start, next;
+};
+
+Adjacency special_adjacency(Index nv, const std::vector<std::pair<Index, Index>>& pairs) {
+    Adjacency a;
+    a.start.assign(nv + 1, 0);
+    for (const auto& [x, y] : pairs) ++a.start[x + 1], ++a.start[y + 1];
+    for (Index v = 0; v < nv; ++v) a.start[v + 1] += a.start[v];
+    a.next.resize(a.start[nv]);
+    std::vector<Index> fill(a.start.begin(), a.start.end() - 1);
+    for (const auto& [x, y] : pairs) a.next[fill[x]++] = y, a.next[fill[y]++] = x;
+    return a;
+}
+
+}  // namespace
+
+ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau) { return find_zeros(mesh, tau, ZeroOptions{}); }
+
+ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options) {
+    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
+    HOLOFLOW_REQUIRE(tau.allFinite(), "form has non-finite values");
+    HOLOFLOW_REQUIRE(mesh.is_closed(), "zero bookkeeping needs a closed surface");
+    const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
+    ZeroSet z;
+    count_windings(mesh, tau, z);
+
+    // Saddles, on the intrinsic Delaunay triangulation when asked (same vertices, the form
+    // carried exactly through the flips); a mesh it cannot take (zero-area faces) counts on
+    // itself.
+    std::vector<std::pair<Index, Index>> intrinsic_edges;
+    {
+        Eigen::MatrixXd forms(mesh.n_edges(), 2);
+        forms.col(0) = tau.real();
+        forms.col(1) = tau.imag();
+        bool done = false;
+        if (options.intrinsic_delaunay) {
+            try {
+                const IntrinsicTriangulation t = intrinsic_delaunay(mesh, forms);
+                z.saddle_order = count_saddles(t.mesh, t.forms.col(0), t.forms.col(1));
+                for (Index e = 0; e < t.mesh.n_edges(); ++e) intrinsic_edges.emplace_back(t.mesh.E(e, 0), t.mesh.E(e, 1));
+                z.intrinsic = done = true;
+            } catch (const InvalidInput&) {
+            }
+        }
+        if (!done) z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));
+    }
+
+    // Special vertices and their adjacency.
+    std::vector<char> special(nv, 0);
+    for (Index v = 0; v < nv; ++v) special[v] = z.winding[v] != 1 || z.saddle_order[v] != 0;
+    for (Index f = 0; f < nf; ++f)
+        if (z.face_flip[f])
+            for (int k = 0; k < 3; ++k) special[mesh.F(f, k)] = 1;
+    std::vector<std::pair<Index, Index>> pairs;
+    for (Index e = 0; e < mesh.n_edges(); ++e)
+        if (special[mesh.E(e, 0)] && special[mesh.E(e, 1)] && mesh.E(e, 0) != mesh.E(e, 1))
+            pairs.emplace_back(mesh.E(e, 0), mesh.E(e, 1));
+    for (const auto& [a, b] : intrinsic_edges)
+        if (a != b && z.saddle_order[a] != 0 && z.saddle_order[b] != 0) pairs.emplace_back(a, b);
+    const Adjacency adj = special_adjacency(nv, pairs);
+
+    // Saddle groups: adjacent vertices with m_v != 0. Every other special vertex joins the
+    // group nearest to it (breadth-first, groups in order of their smallest vertex); special
+    // vertices no group reaches form fold-only clusters.
+    UnionFind groups(nv);
+    for (Index v = 0; v < nv; ++v)
+        if (z.saddle_order[v] != 0)
+            for (Index i = adj.start[v]; i < adj.start[v + 1]; ++i)
+                if (z.saddle_order[adj.next[i]] != 0) groups.unite(v, adj.next[i]);
+    std::vector<Index> owner(nv, -1), queue;
+    for (Index v = 0; v < nv; ++v)
+        if (z.saddle_order[v] != 0 && groups.find(v) == v) owner[v] = v, queue.push_back(v);
+    for (Index v = 0; v < nv; ++v)
+        if (z.saddle_order[v] != 0 && owner[v] < 0) owner[v] = groups.find(v), queue.push_back(v);
+    UnionFind folds(nv);
+    for (std::size_t q = 0; q < queue.size(); ++q) {
+        const Index v = queue[q];
+        for (Index i = adj.start[v]; i < adj.start[v + 1]; ++i) {
+            const Index w = adj.next[i];
+            if (owner[w] < 0) owner[w] = owner[v], queue.push_back(w);
         }
     }
-    for (Index e = 0; e < mesh.n_edges(); ++e)
-        if (special[mesh.E(e, 0)] && special[mesh.E(e, 1)]) uf.unite(mesh.E(e, 0), mesh.E(e, 1));
+    for (Index v = 0; v < nv; ++v)
+        if (special[v] && owner[v] < 0)
+            for (Index i = adj.start[v]; i < adj.start[v + 1]; ++i) folds.unite(v, adj.next[i]);
+    for (Index v = 0; v < nv; ++v)
+        if (special[v] && owner[v] < 0) owner[v] = folds.find(v);
 
-    std::vector<Index> cluster_of(nv, -1);
+    // Clusters numbered by their smallest vertex.
+    std::vector<Index> cluster_of_owner(nv, -1), cluster_of(nv, -1);
+    std::vector<char> has_saddle;
     for (Index v = 0; v < nv; ++v) {
         if (!special[v]) continue;
-        const Index root = uf.find(v);
-        if (cluster_of[root] < 0) {  // roots are smallest members: clusters come out ordered
-            cluster_of[root] = static_cast<Index>(z.clusters.size());
+        Index& c = cluster_of_owner[owner[v]];
+        if (c < 0) {
+            c = static_cast<Index>(z.clusters.size());
             z.clusters.emplace_back();
+            has_saddle.push_back(0);
         }
-        cluster_of[v] = cluster_of[root];
-        ZeroCluster& c = z.clusters[cluster_of[v]];
-        c.vertices.push_back(v);
-        c.index += z.winding[v] - 1;
+        cluster_of[v] = c;
+        z.clusters[c].vertices.push_back(v);
+        z.clusters[c].index += z.saddle_order[v];
+        has_saddle[c] = has_saddle[c] || z.saddle_order[v] != 0;
     }
-    for (Index f = 0; f < nf; ++f) {
-        if (!z.face_flip[f]) continue;
-        ZeroCluster& c = z.clusters[cluster_of[mesh.F(f, 0)]];
-        c.flipped_faces.push_back(f);
-        c.index += z.face_flip[f];
-    }
+    for (Index f = 0; f < nf; ++f)
+        if (z.face_flip[f]) {
+            // A flipped face's corners may sit in different clusters after the split: it goes
+            // to its first corner's.
+            z.clusters[cluster_of[mesh.F(f, 0)]].flipped_faces.push_back(f);
+        }
 
-    // Negative clusters join the nearest positive one (breadth-first over edges), so the
-    // reported orders add up to the exact total.
-    std::vector<Index> nearest(nv, -1), queue;
+    // Negative clusters (a broken maximum principle) join the nearest positive one
+    // (breadth-first over mesh edges), so the reported orders add up to the exact total.
+    std::vector<Index> nearest(nv, -1);
+    queue.clear();
     for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c)
         if (z.clusters[c].index > 0)
             for (Index v : z.clusters[c].vertices) nearest[v] = c, queue.push_back(v);
@@ -193,23 +237,32 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau) {
             h = mesh.rotate(h);
         } while (h != start && h != kNoHalfedge);
     }
-    for (ZeroCluster& c : z.clusters) {
-        if (c.index > 0) continue;
+    for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
+        ZeroCluster& cluster = z.clusters[c];
+        if (cluster.index > 0) continue;
+        if (!has_saddle[c]) {
+            ++z.fold_clusters;
+            continue;
+        }
         ++z.artifact_clusters;
-        if (c.index == 0 || nearest[c.vertices.front()] < 0) continue;
-        ZeroCluster& target = z.clusters[nearest[c.vertices.front()]];
-        target.index += c.index;
-        target.vertices.insert(target.vertices.end(), c.vertices.begin(), c.vertices.end());
-        target.flipped_faces.insert(target.flipped_faces.end(), c.flipped_faces.begin(), c.flipped_faces.end());
+        if (cluster.index == 0 || nearest[cluster.vertices.front()] < 0) continue;
+        ZeroCluster& target = z.clusters[nearest[cluster.vertices.front()]];
+        target.index += cluster.index;
+        target.vertices.insert(target.vertices.end(), cluster.vertices.begin(), cluster.vertices.end());
+        target.flipped_faces.insert(target.flipped_faces.end(), cluster.flipped_faces.begin(), cluster.flipped_faces.end());
         std::sort(target.vertices.begin(), target.vertices.end());
         std::sort(target.flipped_faces.begin(), target.flipped_faces.end());
-        c = ZeroCluster{};
+        cluster = ZeroCluster{};
         ++z.merged_negative_clusters;
     }
     for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
-        if (z.clusters[c].index <= 0) continue;
-        Zero zero = place_zero(mesh, tau, z.clusters[c], z.winding);
+        const ZeroCluster& cluster = z.clusters[c];
+        if (cluster.index <= 0) continue;
+        Zero zero;
+        zero.order = cluster.index;
         zero.cluster = c;
+        for (Index v : cluster.vertices)
+            if (zero.vertex < 0 || z.saddle_order[v] > z.saddle_order[zero.vertex]) zero.vertex = v;
         z.total_order += zero.order;
         z.zeros.push_back(zero);
     }

@@ -181,6 +181,24 @@ TEST(Cli, SegmentWritesItsFilesAndJson) {
     EXPECT_EQ(nlohmann::json::parse(vertical.out)["mode"], "vertical");
 }
 
+// With the extrinsic Laplacian the form is harmonic for the mesh's own cotan weights, so its
+// saddles are counted on the mesh, not on the intrinsic Delaunay triangulation; the count stays
+// exactly 2g - 2.
+TEST(Cli, SegmentWithExtrinsicLaplacianCountsZerosOnTheMesh) {
+    test::TempDir dir;
+    for (const auto& [name, genus] : {std::pair{"eight", 2}, {"helmet", 3}}) {
+        SCOPED_TRACE(name);
+        const auto r = test::run_cli("segment '" + test::corpus(std::string(name) + ".off") + "' -o '" +
+                                     (dir.path() / name).string() + "' --laplacian extrinsic --json");
+        ASSERT_EQ(r.status, 0) << r.err;
+        const auto report = nlohmann::json::parse(r.out);
+        EXPECT_EQ(report["saddle_triangulation"], "mesh");
+        EXPECT_EQ(report["genus"], genus);
+        EXPECT_EQ(report["zero_count"], 2 * genus - 2);
+        EXPECT_EQ(report["zero_index_total"], 2 * genus - 2);
+    }
+}
+
 TEST(Cli, SegmentRefusesBadOptions) {
     test::TempDir dir;
     const std::string out = (dir.path() / "x").string();

@@ -1,13 +1,16 @@
 #include "holoflow/engine/segmentation_pipeline.h"
 
 #include <cmath>
+#include <fstream>
 #include <limits>
+#include <numbers>
 
 #include <Eigen/Geometry>
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/subdivision.h"
 #include "support/test_support.h"
@@ -195,6 +198,53 @@ TEST(Segmentation, MidpointSubdivisionKeepsZerosAndPatches) {
         double nearest = std::numeric_limits<double>::infinity();
         for (const auto& y : zero_positions(fine)) nearest = std::min(nearest, (x - y).norm());
         EXPECT_LT(nearest, 2 * h);
+    }
+}
+
+// Image triangles of the traced mesh turning clockwise (angle sum -pi instead of pi), counted
+// here from the mesh and form alone.
+Index flipped_image_triangles(const MeshView& m, const Eigen::VectorXcd& tau) {
+    Index n = 0;
+    for (Index f = 0; f < m.n_faces(); ++f) {
+        double sum = 0;
+        for (int k = 0; k < 3; ++k) {
+            const std::complex<double> r = std::conj(kernels::form_along(m, tau, 3 * f + k)) *
+                                           -kernels::form_along(m, tau, MeshView::prev(3 * f + k));
+            sum += std::atan2(r.imag(), r.real());
+        }
+        n += std::lround((std::numbers::pi - sum) / (2 * std::numbers::pi)) != 0;
+    }
+    return n;
+}
+
+// The zero, fold and fan counts reach segmentation.json: written, read back, and equal to
+// the result's (fold clusters and left flips recounted independently; femur's image folds
+// away from its zeros).
+TEST(Segmentation, ReportCarriesZeroFoldAndFanCounts) {
+    test::TempDir dir;
+    for (const char* name : {"anchor", "femur"}) {
+        SCOPED_TRACE(name);
+        const SegmentationResult r = segment(*test::corpus_mesh(name));
+        write_segmentation_folder(dir.path() / name, r, segmentation_report(r));
+        std::ifstream in(dir.path() / name / "segmentation.json");
+        const nlohmann::json j = nlohmann::json::parse(in);
+        EXPECT_EQ(j["saddle_triangulation"], "intrinsic_delaunay");
+        Index folds = 0;
+        for (const kernels::ZeroCluster& c : r.zeros.clusters) {
+            bool saddle = false;
+            for (Index v : c.vertices) saddle = saddle || r.zeros.saddle_order[v] != 0;
+            folds += !c.vertices.empty() && !saddle;
+        }
+        EXPECT_EQ(j["fold_clusters"].get<Index>(), folds);
+        const nlohmann::json& fans = j.at("zero_fans");
+        EXPECT_EQ(fans["flipped_faces"].get<Index>(), flipped_image_triangles(r.regular.mesh, r.regular.tau));
+        EXPECT_EQ(fans["failed"].get<Index>(), r.regular.failed_regions);
+        EXPECT_EQ(fans["merged"].get<Index>(), r.regular.merged_regions);
+        EXPECT_EQ(fans["removed_vertices"].get<Index>(), r.regular.removed_vertices);
+        EXPECT_EQ(fans["edge_flips"].get<Index>(), r.regular.edge_flips);
+        if (std::string(name) == "femur") {
+            EXPECT_GT(folds, 0);  // the key is exercised
+        }
     }
 }
 

@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/kernels/shapes.h"
 #include "support/test_support.h"
@@ -14,6 +18,8 @@ ZeroSet zeros_of(const MeshView& mesh) {
     return find_zeros(*c.surface, c.tau);
 }
 
+int saddle_sum(const ZeroSet& z) { return std::accumulate(z.saddle_order.begin(), z.saddle_order.end(), 0); }
+
 TEST(Zeros, CorpusCountIsExactlyTwoGenusMinusTwo) {
     for (const auto& [name, genus] : {std::pair{"eight", 2}, {"femur", 2}, {"elephant", 3}, {"helmet", 3},
                                       {"anchor", 4}, {"couplingdown", 9}}) {
@@ -24,18 +30,92 @@ TEST(Zeros, CorpusCountIsExactlyTwoGenusMinusTwo) {
         int orders = 0;
         for (const Zero& zero : z.zeros) orders += zero.order;
         EXPECT_EQ(orders, 2 * genus - 2);
-        std::printf("%s: zeros %zu clusters %zu artifacts %d merged %d nonpositive w %d flips %d\n", name,
-                    z.zeros.size(), z.clusters.size(), z.artifact_clusters, z.merged_negative_clusters,
-                    z.nonpositive_winding_vertices,
+        std::printf("%s: zeros %zu clusters %zu artifacts %d folds %d merged %d nonpositive w %d flips %d\n", name,
+                    z.zeros.size(), z.clusters.size(), z.artifact_clusters, z.fold_clusters,
+                    z.merged_negative_clusters, z.nonpositive_winding_vertices,
                     static_cast<int>(std::count(z.face_flip.begin(), z.face_flip.end(), 1)));
+    }
+}
+
+// The discrete maximum principle on the intrinsic Delaunay triangulation: every vertex's
+// saddle order is >= 0, so the well-shaped corpus (CAD meshes included) has no artifact, and
+// the orders add up to 2g - 2 exactly.
+TEST(Zeros, SaddlesOnTheIntrinsicDelaunayTriangulationHaveNoArtifacts) {
+    for (const auto& [name, genus] : {std::pair{"eight", 2}, {"femur", 2}, {"elephant", 3}, {"helmet", 3},
+                                      {"anchor", 4}, {"couplingdown", 9}, {"turbine", 11}}) {
+        SCOPED_TRACE(name);
+        const ZeroSet z = zeros_of(*test::corpus_mesh(name));
+        EXPECT_TRUE(z.intrinsic);
+        EXPECT_EQ(saddle_sum(z), 2 * genus - 2);
+        EXPECT_GE(*std::min_element(z.saddle_order.begin(), z.saddle_order.end()), 0);
+        EXPECT_EQ(z.artifact_clusters, 0);
+        EXPECT_EQ(z.merged_negative_clusters, 0);
+        EXPECT_EQ(z.total_order, 2 * genus - 2);
+        for (const Zero& zero : z.zeros) {
+            ASSERT_GE(zero.vertex, 0);
+            EXPECT_GT(z.saddle_order[zero.vertex], 0);  // a zero sits on a saddle
+        }
+    }
+}
+
+TEST(Zeros, ProceduralSurfacesOfHigherGenus) {
+    for (int genus : {2, 3}) {
+        SCOPED_TRACE(genus);
+        const ZeroSet z = zeros_of(shapes::genus_surface(genus, 2));
+        EXPECT_EQ(saddle_sum(z), 2 * genus - 2);
+        EXPECT_EQ(z.total_order, 2 * genus - 2);
+        EXPECT_EQ(z.artifact_clusters, 0);
+    }
+}
+
+// Counted on the mesh itself (negative cotan weights on a CAD mesh) a saddle order can be -1;
+// the total stays exact and the negative cluster joins a zero.
+TEST(Zeros, MeshCountStaysExactWithoutTheMaximumPrinciple) {
+    const auto mesh = test::corpus_mesh("anchor");  // the result points into it
+    const engine::ConformalResult c = engine::compute_conformal(*mesh);
+    ZeroOptions options;
+    options.intrinsic_delaunay = false;
+    const ZeroSet z = find_zeros(*c.surface, c.tau, options);
+    EXPECT_FALSE(z.intrinsic);
+    EXPECT_EQ(saddle_sum(z), 6);
+    EXPECT_EQ(z.total_order, 6);
+}
+
+// Any closed form obeys the identity, ties included: an exact form whose potential takes equal
+// values on many adjacent vertices (symbolic perturbation breaks them consistently).
+TEST(Zeros, TiesKeepTheCountExact) {
+    const int genus = 2;
+    const MeshView mesh = shapes::genus_surface(genus, 2);
+    Eigen::VectorXcd tau(mesh.n_edges());
+    const auto potential = [&](Index v) {
+        const double u = std::round(4 * mesh.V(v, 0));  // coarse steps: many equal neighbours
+        return std::complex<double>(u, 0.0);            // Im = 0: every tie reaches the 3D key
+    };
+    for (Index e = 0; e < mesh.n_edges(); ++e) tau(e) = potential(mesh.E(e, 1)) - potential(mesh.E(e, 0));
+    for (bool intrinsic : {true, false}) {
+        ZeroOptions options;
+        options.intrinsic_delaunay = intrinsic;
+        const ZeroSet z = find_zeros(mesh, tau, options);
+        EXPECT_EQ(saddle_sum(z), 2 * genus - 2);
+        int clusters = 0;
+        for (const ZeroCluster& c : z.clusters) clusters += c.index;
+        EXPECT_EQ(clusters, 2 * genus - 2);
     }
 }
 
 TEST(Zeros, TorusHasNone) {
     const ZeroSet z = zeros_of(shapes::torus(2, 1, 48, 24));
     EXPECT_EQ(z.total_index, 0);
+    EXPECT_EQ(saddle_sum(z), 0);
     EXPECT_TRUE(z.zeros.empty());
     EXPECT_EQ(z.artifact_clusters, 0);
+}
+
+TEST(Zeros, RejectsBadInput) {
+    const MeshView mesh = shapes::torus(2, 1, 12, 8);
+    EXPECT_THROW(find_zeros(mesh, Eigen::VectorXcd::Zero(mesh.n_edges() - 1)), InvalidInput);
+    EXPECT_THROW(find_zeros(shapes::flat_grid(3, 3), Eigen::VectorXcd::Zero(shapes::flat_grid(3, 3).n_edges())),
+                 InvalidInput);
 }
 
 }  // namespace

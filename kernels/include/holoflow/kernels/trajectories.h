@@ -64,7 +64,9 @@ struct TraceOptions {
 //! 1e-9 of the local edge image), boundary edges, boundary vertices at the level, the length
 //! cap, or (motorcycle) an earlier trajectory: all curves advance in rounds of doubling image
 //! length concurrently, collisions are resolved afterwards in order of the later arrival time
-//! (ties by id), so the result does not depend on the thread count.
+//! (ties by id), so the result does not depend on the thread count. A curve traced from both
+//! of its zeros (a saddle connection, a closed critical loop) is kept once, whole: a second copy,
+//! complete or stopped on the way, is dropped and curves it stopped stop on the kept one.
 //! `families`: which families to trace. \throw InvalidInput on bad zero vertices.
 std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
                                            std::span<const Index> zero_vertices,

@@ -26,20 +26,36 @@ struct RegularisedForm {
     MeshView mesh;
     Eigen::VectorXcd tau;               //!< #E of `mesh`
     std::vector<Index> original_vertex;  //!< per vertex: input vertex, -1 for inserted zero points
-    std::vector<Index> original_face;    //!< per face: input face, -1 for fan faces
-    std::vector<Index> region_vertex;    //!< per region: its fan centre in `mesh`, -1 if failed
+    std::vector<Index> original_face;    //!< per face: input face, -1 for new or edge-flipped faces
+    //! Per region: its centre in `mesh` (a fold re-triangulated without one: a vertex of its
+    //! border), -1 if failed. Regions re-triangulated together share the centre.
+    std::vector<Index> region_vertex;
     Index removed_vertices = 0;          //!< input vertices inside fans (replaced by the centre)
     Index failed_regions = 0;            //!< left as they were (counted, their flips remain)
+    //! Regions re-triangulated within another one (a fold next to a zero joins the zero's).
+    Index merged_regions = 0;
+    Index flipped_faces = 0;             //!< flipped image triangles left in `mesh`
+    Index edge_flips = 0;                //!< edges flipped before any region was re-triangulated
 };
 
-//! \brief Replaces each region's star (the faces touching its vertices, grown by up to three
-//! rings when needed) by a fan from one centre: the zero's point (face zeros; a new vertex), the
-//! zero's vertex, or for a region touching the mesh boundary its boundary vertex nearest the
-//! zero. The fan is kept only if every fan triangle's image (the form developed over the star)
-//! is counter-clockwise and its 3D triangle non-degenerate; then the centre winds exactly
-//! order + 1 times and no flipped image triangle remains there, so trajectories can leave a
-//! zero from a vertex. The form on fan edges is the developed image difference (closed).
-//! Regions whose stars overlap an earlier region's are left alone (failed). Deterministic.
+//! \brief First flips every edge whose flip turns a flipped image triangle and its neighbour
+//! into two counter-clockwise ones (no vertex lost; faces holding a zero's point stay). Then
+//! re-triangulates a disk around each region (first the faces touching its vertices) in
+//! the image of the form developed over it: its interior vertices go, its border stays, and
+//! new triangles join the border to one centre (the zero's vertex or point, another interior
+//! vertex or a face centroid nearest it; for a region touching the mesh boundary a boundary
+//! vertex): a fan where the border is star-shaped around the centre, else sectors between
+//! spokes, each a simple counter-clockwise polygon cut into ears. A fold (order 0) may instead
+//! clip its whole border polygon. Kept only if every new image triangle is counter-clockwise,
+//! every 3D triangle non-degenerate, the centre winds order + 1 times and every border vertex
+//! once; then no flipped image triangle remains there and trajectories leave a zero from a
+//! vertex. Otherwise the disk grows towards what broke (flips and windings != 1 at its
+//! border, bad spokes), closing small holes, up to a step and size cap; a disk that goes around
+//! a handle is cut open where its development disagrees. Zeros are placed first; a fold that
+//! meets another region joins it; a zero that fails alone may then take in the other zeros of
+//! its tangle (one centre winding sum of orders + 1 times); flips no region holds become folds
+//! of their own. A region that is already regular keeps its faces. The form on new edges is
+//! the developed image difference (closed). Deterministic.
 //! \pre tau closed, #E values; regions' vertices valid.  \throw InvalidInput.
 RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau,
                                  std::span<const ZeroRegion> regions);

@@ -10,10 +10,12 @@
 
 namespace holoflow::kernels {
 
-//! Vertices with image winding != 1 and flipped image triangles that touch (share a vertex or
-//! an edge between two such vertices), with their signed multiplicity (DESIGN 2.5).
+//! Special vertices that touch: saddles (saddle_order != 0), vertices with image winding != 1
+//! and corners of flipped image triangles (DESIGN 2.5). A component holding several saddle
+//! groups is split between them (each special vertex goes to its nearest group), so a cluster
+//! holds at most one group of adjacent saddles.
 struct ZeroCluster {
-    int index = 0;                    //!< sum (w_v - 1) + flipped faces: the zero's order if > 0
+    int index = 0;                    //!< sum of saddle_order over its vertices: the zero's order if > 0
     std::vector<Index> vertices;      //!< ascending
     std::vector<Index> flipped_faces; //!< ascending
 };
@@ -37,23 +39,42 @@ struct ZeroSet {
     std::vector<Zero> zeros;            //!< clusters of positive index, in cluster order
     int total_index = 0;  //!< sum (w_v - 1) + flips = 2g - 2 exactly on a closed surface
     int total_order = 0;  //!< sum of zero orders (= total_index when no cluster is negative)
-    //! Clusters of index <= 0 (flips or windings away from any zero: bad weights, slivers).
+    //! Clusters of index <= 0 that hold saddle-count defects (vertices with saddle_order != 0 away
+    //! from any zero: a broken discrete maximum principle, e.g. negative weights).
     Index artifact_clusters = 0;
     //! Negative clusters merged into their nearest positive one, so total_order = total_index.
     Index merged_negative_clusters = 0;
     Index nonpositive_winding_vertices = 0;  //!< w_v <= 0 anywhere
+    //! #V: m_v = (sign changes of du around v) / 2 - 1 for u = Re of the integrated form, on the
+    //! counting triangulation (Banchoff's index with the sign flipped); sum m_v = 2g - 2 exactly.
+    std::vector<int> saddle_order;
+    //! Clusters with no saddle: folds of the mesh's piecewise linear image only (flips and
+    //! windings != 1 where the form has no zero), left for regularise_zeros to re-triangulate.
+    Index fold_clusters = 0;
+    bool intrinsic = false;  //!< saddles counted on the intrinsic Delaunay triangulation
+};
+
+struct ZeroOptions {
+    //! Count saddles on the intrinsic Delaunay triangulation of the mesh, where a form harmonic
+    //! for its cotan Laplacian obeys the discrete maximum principle (every m_v >= 0). False:
+    //! on the mesh itself (right for a form harmonic for the mesh's own cotan weights).
+    bool intrinsic_delaunay = true;
 };
 
 //! \brief Zero points of the closed complex 1-form `tau` (one value per edge, along
-//! E(e,0) -> E(e,1)) on a closed mesh, by exact image-winding bookkeeping: each corner's image
-//! angle is the principal angle between its two image edges, each face's three angles sum to
-//! an odd multiple of pi (flipped when -pi), each vertex's to 2 pi w_v, so
-//! sum (w_v - 1) + flips = 2g - 2 holds as an integer identity whatever the rounding. An image
-//! edge of exactly zero length takes a fixed generic direction from its 3D vector instead
-//! (symbolic perturbation). A cluster's position: the vertex of a lone winding-(k+1) vertex,
-//! else the critical point of the quadratic through a flipped face's three images (inside the
-//! face), else its best vertex. Deterministic; faces in parallel.
+//! E(e,0) -> E(e,1)) on a closed mesh. Zeros are the saddles of u = Re(integral of tau): around
+//! each vertex of the intrinsic Delaunay triangulation the sign of du along the edges changes
+//! 2 (m_v + 1) times; each triangle has exactly one corner with a change, so
+//! sum m_v = 2g - 2 is an integer identity (Banchoff), and with nonnegative cotan weights the
+//! discrete maximum principle makes every m_v >= 0, so no artifact can appear. Ties (du = 0)
+//! are broken by Im tau, then a generic linear function of the positions, then vertex ids
+//! (symbolic perturbation); a vertex of intrinsic degree one (forced to its neighbour's value)
+//! hands its m_v to that neighbour. The mesh's own image-winding bookkeeping (each corner's
+//! principal image angle; sum (w_v - 1) + flips = 2g - 2 exactly) is kept for the folds of the
+//! piecewise linear image, which join the clusters so that regularise_zeros removes them. A
+//! zero sits at its cluster's saddle vertex (highest m_v, then smallest id). Deterministic.
 //! \pre closed mesh, tau has #E finite values.  \throw InvalidInput.
+ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options);
 ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau);
 
 }  // namespace holoflow::kernels

@@ -1,0 +1,99 @@
+#include "holoflow/kernels/flow_cut.h"
+
+#include <gtest/gtest.h>
+
+#include <complex>
+
+#include <Eigen/Geometry>
+
+#include "holoflow/kernels/errors.h"
+
+namespace holoflow::kernels {
+namespace {
+
+constexpr double kAreaTol = 1e-14;  // areas of a unit-size triangle, rounding only
+
+// The unit square A B C D split along AC, in the plane, with the identity as its image.
+struct Square {
+    MeshView mesh;
+    Eigen::VectorXcd tau;
+    Square() {
+        PointMatrix V(4, 3);
+        V << 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0;
+        TriangleMatrix F(2, 3);
+        F << 0, 1, 2, 0, 2, 3;  // halfedge 1 runs B -> C, halfedge 3 runs A -> C
+        mesh = make_mesh_view(V, F);
+        tau.resize(mesh.n_edges());
+        for (Index e = 0; e < mesh.n_edges(); ++e) {
+            const Eigen::RowVector3d d = mesh.V.row(mesh.E(e, 1)) - mesh.V.row(mesh.E(e, 0));
+            tau(e) = {d(0), d(1)};
+        }
+    }
+};
+
+// In face A B C: T0 runs from A to M, the middle of BC; T1 leaves C and stops on T0 at P; T2
+// comes from D across AC at X and stops on T1 at Q, later than T1 stopped. Q exists only once
+// T1 is cut in, although T1 stopped first: the cutter must still place all three.
+std::vector<Trajectory> blocker_stops_first() {
+    Trajectory t0;
+    t0.start_vertex = 0;
+    t0.first_face = 0;
+    t0.family = TrajectoryFamily::Vertical;
+    t0.crossings = {{1, 0.5, 1.1}};
+    t0.end = Trajectory::End::Boundary;
+    t0.length = 1.1;
+    Trajectory t1;
+    t1.start_vertex = 2;
+    t1.first_face = 0;
+    t1.family = TrajectoryFamily::Horizontal;
+    t1.end = Trajectory::End::Collision;
+    t1.end_barycentric = {0.5, 0.25, 0.25};  // P = (0.5, 0.25)
+    t1.blocker = 0;
+    t1.blocker_segment = 0;
+    t1.blocker_length = 0.3;
+    t1.length = 1.0;
+    Trajectory t2;
+    t2.start_vertex = 3;
+    t2.first_face = 1;
+    t2.family = TrajectoryFamily::Vertical;
+    t2.crossings = {{3, 0.5, 0.7}};          // X = (0.5, 0.5)
+    t2.end = Trajectory::End::Collision;
+    t2.end_barycentric = {0.25, 0.125, 0.625};  // Q = (0.75, 0.625), between C and P
+    t2.blocker = 1;
+    t2.blocker_segment = 0;
+    t2.blocker_length = 0.4;
+    t2.length = 2.0;
+    return {t0, t1, t2};
+}
+
+TEST(FlowCut, CurveStoppedOnACurveThatStoppedEarlierIsPlaced) {
+    const Square square;
+    const std::vector<Trajectory> ts = blocker_stops_first();
+    const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, ts);
+    EXPECT_EQ(cut.skipped_segments, 0);
+    EXPECT_EQ(cut.mesh.n_vertices(), 8);  // A B C D, M, X, P and Q
+    double area = 0;
+    for (Index f = 0; f < cut.mesh.n_faces(); ++f) {
+        const Eigen::RowVector3d a = cut.mesh.V.row(cut.mesh.F(f, 0)), b = cut.mesh.V.row(cut.mesh.F(f, 1)),
+                                 c = cut.mesh.V.row(cut.mesh.F(f, 2));
+        const double z = (b - a).cross(c - a)(2) / 2;
+        EXPECT_GT(z, kAreaTol);  // every piece counter-clockwise and not degenerate
+        area += z;
+    }
+    EXPECT_NEAR(area, 1.0, kAreaTol);
+    // Each curve is a border: T0 in two pieces (A-P, P-M), T1 in two (C-Q, Q-P), T2 in two
+    // (D-X, X-Q).
+    std::array<int, 3> edges{};
+    for (Index e = 0; e < cut.mesh.n_edges(); ++e)
+        if (cut.edge_trajectory[e] >= 0) ++edges[cut.edge_trajectory[e]];
+    EXPECT_EQ(edges, (std::array<int, 3>{2, 2, 2}));
+}
+
+TEST(FlowCut, LabelsMustMatchTheEdges) {
+    const Square square;
+    const std::vector<Index> labels(square.mesh.n_edges() + 1, kNoBorder);
+    EXPECT_THROW(cut_along_trajectories(square.mesh, square.tau, blocker_stops_first(), labels), InvalidInput);
+}
+
+}  // namespace
+}  // namespace holoflow::kernels

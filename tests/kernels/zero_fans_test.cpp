@@ -1,0 +1,215 @@
+#include "holoflow/kernels/zero_fans.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <functional>
+#include <numbers>
+
+#include "holoflow/engine/segmentation_pipeline.h"
+#include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/shapes.h"
+#include "support/test_support.h"
+
+namespace holoflow::kernels {
+namespace {
+
+using Complex = std::complex<double>;
+constexpr double kClosedTol = 1e-12;  // a face's three form values cancel up to rounding
+
+// Flat grid over [-1.5, 1.5]^2 turned by a generic angle (no edge along an axis).
+MeshView turned_grid(int n) {
+    MeshView m = shapes::flat_grid(n, n);
+    const double c = std::cos(0.3), s = std::sin(0.3);
+    for (Index v = 0; v < m.n_vertices(); ++v) {
+        const double x = 3 * m.V(v, 0) - 1.5, y = 3 * m.V(v, 1) - 1.5;
+        m.V(v, 0) = c * x - s * y;
+        m.V(v, 1) = s * x + c * y;
+    }
+    return m;
+}
+
+// The exact form d f for f given at the vertices.
+Eigen::VectorXcd form_of(const MeshView& m, const std::vector<Complex>& f) {
+    Eigen::VectorXcd tau(m.n_edges());
+    for (Index e = 0; e < m.n_edges(); ++e) tau(e) = f[m.E(e, 1)] - f[m.E(e, 0)];
+    return tau;
+}
+
+Complex point(const MeshView& m, Index v) { return {m.V(v, 0), m.V(v, 1)}; }
+
+// The face whose 2D triangle holds z, with its barycentric coordinates.
+Index face_containing(const MeshView& m, Complex z, std::array<double, 3>& bary) {
+    for (Index f = 0; f < m.n_faces(); ++f) {
+        const Complex a = point(m, m.F(f, 0)), b = point(m, m.F(f, 1)), c = point(m, m.F(f, 2));
+        const double area = cross(b - a, c - a);
+        const double b1 = cross(z - a, c - a) / area, b2 = cross(b - a, z - a) / area;
+        if (b1 > 0 && b2 > 0 && b1 + b2 < 1) {
+            bary = {1 - b1 - b2, b1, b2};
+            return f;
+        }
+    }
+    return -1;
+}
+
+// A region for a zero of f at z inside a face of m.
+ZeroRegion face_zero(const MeshView& m, Complex z, int order, const std::function<Complex(Complex)>& f) {
+    ZeroRegion r;
+    r.order = order;
+    r.face = face_containing(m, z, r.barycentric);
+    for (int k = 0; k < 3; ++k) r.vertices.push_back(m.F(r.face, k));
+    r.image_offset = f(z) - f(point(m, m.F(r.face, 0)));
+    return r;
+}
+
+struct ImageCheck {
+    Index flipped = 0;
+    double closedness = 0;
+    std::vector<int> winding;  // interior vertices; boundary ones 0
+};
+
+ImageCheck check_image(const MeshView& m, const Eigen::VectorXcd& tau) {
+    ImageCheck c;
+    std::vector<double> angle(m.n_vertices(), 0);
+    std::vector<char> boundary(m.n_vertices(), 0);
+    for (Index h = 0; h < m.n_halfedges(); ++h)
+        if (m.twin[h] == kNoHalfedge) boundary[m.tail(h)] = boundary[m.head(h)] = 1;
+    for (Index f = 0; f < m.n_faces(); ++f) {
+        const Complex a = form_along(m, tau, 3 * f), b = form_along(m, tau, 3 * f + 1), d = form_along(m, tau, 3 * f + 2);
+        c.closedness = std::max(c.closedness, std::abs(a + b + d) / (std::abs(a) + std::abs(b) + std::abs(d)));
+        c.flipped += cross(a, -d) <= 0;
+        for (int k = 0; k < 3; ++k) {
+            const Complex out = form_along(m, tau, 3 * f + k), in = -form_along(m, tau, 3 * f + (k + 2) % 3);
+            angle[m.F(f, k)] += std::arg(in / out);
+        }
+    }
+    c.winding.resize(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v)
+        c.winding[v] = boundary[v] ? 0 : static_cast<int>(std::lround(angle[v] / (2 * std::numbers::pi)));
+    return c;
+}
+
+// f = z^2 has a simple zero at 0: after the fan the centre winds twice, every other interior
+// vertex once, and no image triangle is flipped.
+TEST(ZeroFans, SimpleZeroInsideAFaceBecomesAVertexWindingTwice) {
+    const MeshView m = turned_grid(14);
+    const auto f = [](Complex z) { return z * z; };
+    const Complex zero(0.013, -0.021);  // off the grid's symmetry
+    std::vector<Complex> shifted(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) shifted[v] = f(point(m, v) - zero);
+    const std::vector<ZeroRegion> regions{face_zero(m, zero, 1, [&](Complex z) { return f(z - zero); })};
+    const RegularisedForm r = regularise_zeros(m, form_of(m, shifted), regions);
+    EXPECT_EQ(r.failed_regions, 0);
+    EXPECT_EQ(r.flipped_faces, 0);
+    ASSERT_GE(r.region_vertex[0], 0);
+    const ImageCheck c = check_image(r.mesh, r.tau);
+    EXPECT_EQ(c.flipped, 0);
+    EXPECT_LT(c.closedness, kClosedTol);
+    for (Index v = 0; v < r.mesh.n_vertices(); ++v)
+        if (c.winding[v] != 0) {
+            EXPECT_EQ(c.winding[v], v == r.region_vertex[0] ? 2 : 1) << "vertex " << v;
+        }
+}
+
+// A fold (a vertex's image pushed just across the opposite edge of one of its triangles) is
+// repaired by one edge flip, without losing the vertex. A hexagon around vertex 0 with a
+// strictly convex link, and one triangle beyond each link edge.
+TEST(ZeroFans, FoldAcrossOneEdgeIsRepairedByAnEdgeFlip) {
+    PointMatrix V(13, 3);
+    V.row(0) << 0, 0, 0;
+    for (int k = 0; k < 6; ++k) {
+        const double t = k * std::numbers::pi / 3, s = t + std::numbers::pi / 6;
+        V.row(1 + k) << std::cos(t), std::sin(t), 0;
+        V.row(7 + k) << 2 * std::cos(s), 2 * std::sin(s), 0;
+    }
+    TriangleMatrix F(12, 3);
+    for (int k = 0; k < 6; ++k) {
+        F.row(k) << 0, 1 + k, 1 + (k + 1) % 6;
+        F.row(6 + k) << 1 + k, 7 + k, 1 + (k + 1) % 6;
+    }
+    const MeshView m = make_mesh_view(V, F);
+    std::vector<Complex> image(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) image[v] = point(m, v);
+    const Complex mid = (image[1] + image[2]) / 2.0;
+    image[0] = mid * 1.05;  // just beyond the link edge 1-2
+    ASSERT_EQ(check_image(m, form_of(m, image)).flipped, 1);
+    ZeroRegion fold;
+    fold.vertices = {0};
+    const RegularisedForm r = regularise_zeros(m, form_of(m, image), std::vector<ZeroRegion>{fold});
+    EXPECT_EQ(r.edge_flips, 1);
+    EXPECT_EQ(r.removed_vertices, 0);
+    EXPECT_EQ(r.failed_regions, 0);
+    EXPECT_EQ(r.mesh.n_faces(), m.n_faces());
+    const ImageCheck c = check_image(r.mesh, r.tau);
+    EXPECT_EQ(c.flipped, 0);
+    EXPECT_EQ(c.winding[0], 1);
+}
+
+// A vertex whose image lies far outside its link (winding 0, several flips) needs a
+// re-triangulation of its star: the fold goes and every interior vertex winds once.
+TEST(ZeroFans, FoldWithoutAZeroIsReTriangulated) {
+    const MeshView m = shapes::flat_grid(10, 10);
+    std::vector<Complex> image(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) image[v] = point(m, v);
+    const Index v = 5 * 11 + 5;
+    image[v] += Complex(0.17, 0.11);  // about 1.5 cells away: beyond its whole one-ring
+    ASSERT_GT(check_image(m, form_of(m, image)).flipped, 1);
+    ZeroRegion fold;
+    fold.vertices = {v};
+    const RegularisedForm r = regularise_zeros(m, form_of(m, image), std::vector<ZeroRegion>{fold});
+    EXPECT_EQ(r.failed_regions, 0);
+    const ImageCheck c = check_image(r.mesh, r.tau);
+    EXPECT_EQ(c.flipped, 0);
+    EXPECT_LT(c.closedness, kClosedTol);
+    for (int w : c.winding) EXPECT_LE(w, 1);
+}
+
+// f = z^3 at a vertex: an order-2 zero, its one-ring already a fan winding three times.
+TEST(ZeroFans, ZeroAtAVertexKeepsTheVertex) {
+    const MeshView m = shapes::flat_grid(10, 10);
+    const Index centre = 5 * 11 + 5;
+    std::vector<Complex> image(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) image[v] = std::pow(point(m, v) - point(m, centre), 3);
+    ZeroRegion zero;
+    zero.order = 2;
+    zero.vertex = centre;
+    zero.vertices = {centre};
+    const RegularisedForm r = regularise_zeros(m, form_of(m, image), std::vector<ZeroRegion>{zero});
+    ASSERT_EQ(r.failed_regions, 0);
+    EXPECT_EQ(r.original_vertex[r.region_vertex[0]], centre);
+    const ImageCheck c = check_image(r.mesh, r.tau);
+    EXPECT_EQ(c.flipped, 0);
+    EXPECT_EQ(c.winding[r.region_vertex[0]], 3);
+}
+
+TEST(ZeroFans, RejectsBadRegions) {
+    const MeshView m = shapes::flat_grid(3, 3);
+    const Eigen::VectorXcd tau = Eigen::VectorXcd::Zero(m.n_edges());
+    ZeroRegion bad;
+    bad.vertices = {m.n_vertices()};
+    EXPECT_THROW(regularise_zeros(m, tau, std::vector<ZeroRegion>{bad}), InvalidInput);
+    EXPECT_THROW(regularise_zeros(m, Eigen::VectorXcd::Zero(2), std::vector<ZeroRegion>{}), InvalidInput);
+}
+
+// Corpus meshes whose piecewise linear image folds near and away from the zeros: every fold
+// is re-triangulated, so the segmentation has only disks, no flipped uv triangle and exact
+// rectangles.
+TEST(ZeroFans, CorpusSegmentationsHaveNoFlippedTriangles) {
+    for (const char* name : {"femur", "helmet", "couplingdown", "lion"}) {
+        SCOPED_TRACE(name);
+        const engine::SegmentationResult r = engine::segment(*test::corpus_mesh(name));
+        EXPECT_EQ(r.zeros.artifact_clusters, 0);
+        EXPECT_EQ(r.regular.failed_regions, 0);
+        EXPECT_EQ(r.regular.flipped_faces, 0);
+        EXPECT_EQ(r.cut.skipped_segments, 0);
+        for (const PatchInfo& p : r.patches.info) {
+            EXPECT_EQ(p.type, PatchInfo::Type::Disk);
+            EXPECT_EQ(p.flipped_uv_triangles, 0);
+            EXPECT_LT(p.rectangle_error, 1e-9);
+        }
+    }
+}
+
+}  // namespace
+}  // namespace holoflow::kernels
