@@ -268,6 +268,10 @@ void integrate(ConformalWork& work) {
                                      : kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
                                                             chosen_form(work.intrinsic.forms));
                  });
+    if (work.intrinsic_laplacian()) {
+        work.intrinsic.forms = {};
+        r.intrinsic = std::make_shared<const kernels::IntrinsicTriangulation>(std::move(work.intrinsic));
+    }
     work.intrinsic = {};
     work.weights = {};
     clock.lap("integration");

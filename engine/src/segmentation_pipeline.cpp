@@ -150,7 +150,9 @@ void zeros(SegmentationWork& work) {
     // only if the Laplacian was built there, else on the mesh with its own cotan weights.
     kernels::ZeroOptions zero_options;
     zero_options.intrinsic_delaunay = work.options.conformal.laplacian == LaplacianKind::IntrinsicDelaunay;
+    zero_options.triangulation = r.conformal.intrinsic.get();
     r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau, zero_options);
+    r.conformal.intrinsic.reset();  // nothing after the zeros needs it
     const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
     if (!torus) work.regions = zero_regions(r);
     clock.lap("zeros");

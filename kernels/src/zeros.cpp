@@ -146,11 +146,17 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         bool done = false;
         if (options.intrinsic_delaunay) {
             try {
-                const IntrinsicTriangulation t = intrinsic_delaunay(mesh, forms);
-                z.saddle_order = count_saddles(t.mesh, t.forms.col(0), t.forms.col(1));
+                IntrinsicTriangulation computed;
+                if (!options.triangulation) computed = intrinsic_delaunay(mesh);
+                const IntrinsicTriangulation& t = options.triangulation ? *options.triangulation : computed;
+                HOLOFLOW_REQUIRE(t.mesh.n_vertices() == nv && t.mesh.n_edges() == mesh.n_edges(),
+                                 "the given intrinsic triangulation is not of this mesh");
+                const Eigen::MatrixXd carried = carry_forms(t, forms);
+                z.saddle_order = count_saddles(t.mesh, carried.col(0), carried.col(1));
                 for (Index e = 0; e < t.mesh.n_edges(); ++e) intrinsic_edges.emplace_back(t.mesh.E(e, 0), t.mesh.E(e, 1));
                 z.intrinsic = done = true;
             } catch (const InvalidInput&) {
+                if (options.triangulation) throw;  // a wrong triangulation is the caller's bug
             }
         }
         if (!done) z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));

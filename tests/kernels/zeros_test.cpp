@@ -58,6 +58,28 @@ TEST(Zeros, SaddlesOnTheIntrinsicDelaunayTriangulationHaveNoArtifacts) {
     }
 }
 
+// The conformal stage's own triangulation (flips replayed on tau) gives what redoing the flips
+// gives; one of another mesh is refused.
+TEST(Zeros, GivenTriangulationMatchesRecomputedOne) {
+    const auto elephant = test::corpus_mesh("elephant"), eight = test::corpus_mesh("eight");
+    const engine::ConformalResult c = engine::compute_conformal(*elephant);  // surface: *elephant
+    ASSERT_NE(c.intrinsic, nullptr);
+    ZeroOptions given;
+    given.triangulation = c.intrinsic.get();
+    const ZeroSet fresh = find_zeros(*c.surface, c.tau), reused = find_zeros(*c.surface, c.tau, given);
+    EXPECT_TRUE(reused.intrinsic);
+    EXPECT_EQ(reused.saddle_order, fresh.saddle_order);
+    ASSERT_EQ(reused.zeros.size(), fresh.zeros.size());
+    for (std::size_t i = 0; i < fresh.zeros.size(); ++i) {
+        EXPECT_EQ(reused.zeros[i].vertex, fresh.zeros[i].vertex);
+        EXPECT_EQ(reused.zeros[i].order, fresh.zeros[i].order);
+    }
+    const engine::ConformalResult other = engine::compute_conformal(*eight);
+    ZeroOptions wrong;
+    wrong.triangulation = other.intrinsic.get();
+    EXPECT_THROW(find_zeros(*c.surface, c.tau, wrong), InvalidInput);
+}
+
 TEST(Zeros, ProceduralSurfacesOfHigherGenus) {
     for (int genus : {2, 3}) {
         SCOPED_TRACE(genus);

@@ -70,6 +70,9 @@ struct ConformalResult {
     double closedness_max = 0;               //!< of the harmonic forms (so of every holomorphic one)
     double coclosedness_max = 0;             //!< of the harmonic forms, relative to the rhs
     Index intrinsic_flips = 0;
+    //! The intrinsic Delaunay triangulation of `surface` the Laplacian was built on (without
+    //! forms; null with LaplacianKind::Extrinsic): zero finding replays its flips on tau.
+    std::shared_ptr<const kernels::IntrinsicTriangulation> intrinsic;
     Index negative_weights = 0;              //!< cotan weights < 0 in the Laplacian used
     StageTimes timings_ms;
 };

@@ -54,11 +54,16 @@ struct ZeroSet {
     bool intrinsic = false;  //!< saddles counted on the intrinsic Delaunay triangulation
 };
 
+struct IntrinsicTriangulation;
+
 struct ZeroOptions {
     //! Count saddles on the intrinsic Delaunay triangulation of the mesh, where a form harmonic
     //! for its cotan Laplacian obeys the discrete maximum principle (every m_v >= 0). False:
     //! on the mesh itself (right for a form harmonic for the mesh's own cotan weights).
     bool intrinsic_delaunay = true;
+    //! That triangulation when the caller has it already (the conformal stage's, of this very
+    //! mesh): its flips are replayed on tau instead of redone (carry_forms, the same bits).
+    const IntrinsicTriangulation* triangulation = nullptr;
 };
 
 //! \brief Zero points of the closed complex 1-form `tau` (one value per edge, along
