@@ -60,7 +60,7 @@ inline PipelineLaplacian pipeline_laplacian(std::shared_ptr<const MeshView> mesh
     options.laplacian = kind;
     PipelineLaplacian p{engine::conformal_stage::prepare(std::move(mesh), options), {}};
     engine::conformal_stage::laplacian(p.work);
-    engine::conformal_stage::homology(p.work);
+    engine::conformal_stage::homology(p.work, p.work.result.timings_ms);
     const Eigen::MatrixXd& eta = p.work.intrinsic_laplacian() ? p.work.intrinsic.forms : p.work.closed_forms();
     p.rhs = kernels::harmonic_rhs(p.work.result.surface->n_vertices(), p.work.laplace_mesh().E, p.work.weights, eta,
                                   p.work.pinned);

@@ -60,10 +60,6 @@ import json, math, os, re, sys
 
 work, mode, limit = sys.argv[1], sys.argv[2], sys.argv[3]
 # segmentation.json sorts its keys, so the stage groups come from these lists.
-# `overlap` (negative) takes back the time the homology branch ran beside the factorisation.
-CONFORMAL = ["double_cover", "intrinsic_delaunay", "laplacian_assembly", "cut_graph_and_closed_forms",
-             "wedge_matrix", "carry_forms", "analyse", "factorise", "overlap", "solves", "hodge_star",
-             "holomorphic_basis", "integration"]
 SOLVER = ["analyse", "factorise", "solves"]
 SEGMENTATION = ["zeros", "zero_fans", "tracing", "cutting", "patches"]
 TIPS = "tip_slicing"

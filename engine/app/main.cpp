@@ -48,13 +48,12 @@ int run_guarded(const std::function<int()>& body) {
     }
 }
 
-struct MeshArgs {
-    std::string path;
+// Loading options of every subcommand.
+struct LoadArgs {
     std::string components = "all";
     std::size_t max_faces = 0;
 
     void add_to(CLI::App& command) {
-        command.add_option("MESH", path, "mesh file: .off .obj .ply .stl")->required();
         command
             .add_option("--component", components,
                         "several components: keep all, or only the largest")
@@ -68,6 +67,17 @@ struct MeshArgs {
         o.max_faces = max_faces;
         return o;
     }
+};
+
+struct MeshArgs {
+    std::string path;
+    LoadArgs load;
+
+    void add_to(CLI::App& command) {
+        command.add_option("MESH", path, "mesh file: .off .obj .ply .stl")->required();
+        load.add_to(command);
+    }
+    engine::LoadOptions options() const { return load.options(); }
 };
 
 int run_info(const MeshArgs& mesh_args, bool json) {
@@ -110,8 +120,8 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
 
 // Options shared by `segment` and `batch`.
 struct SegmentSettings {
-    std::string mode = "layout", laplacian = "intrinsic", components = "all";
-    std::size_t max_faces = 0;
+    LoadArgs load;
+    std::string mode = "layout", laplacian = "intrinsic";
     std::size_t max_memory_mb = 0;
     int max_tips = 8;
     double hole_size = 0.02;
@@ -122,9 +132,7 @@ struct SegmentSettings {
             ->check(CLI::IsMember({"vertical", "layout"}));
         command.add_option("--laplacian", laplacian, "cotan weights: intrinsic Delaunay or the mesh itself")
             ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
-        command.add_option("--component", components, "several components: keep all, or only the largest")
-            ->check(CLI::IsMember({"all", "largest"}));
-        command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
+        load.add_to(command);
         command.add_option("--max-memory", max_memory_mb,
                            "refuse a model whose solver would need more MiB than this (0: no limit)");
         command.add_option("--max-tips", max_tips, "most tips detected automatically")
@@ -134,8 +142,7 @@ struct SegmentSettings {
     }
     graphs::SegmentationGraphOptions graph_options() const {
         graphs::SegmentationGraphOptions o;
-        o.load.components = components == "largest" ? engine::ComponentPolicy::Largest : engine::ComponentPolicy::All;
-        o.load.max_faces = max_faces;
+        o.load = load.options();
         o.segment.conformal.laplacian =
             laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic : engine::LaplacianKind::IntrinsicDelaunay;
         o.segment.conformal.max_solver_bytes = max_memory_mb << 20;
@@ -146,7 +153,7 @@ struct SegmentSettings {
     }
     //! What a finished model's results depend on: a re-run with other values recomputes it.
     nlohmann::json fingerprint() const {
-        return {{"mode", mode}, {"laplacian", laplacian}, {"component", components},
+        return {{"mode", mode}, {"laplacian", laplacian}, {"component", load.components},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"version", HOLOFLOW_VERSION}};
     }
 };

@@ -57,11 +57,13 @@ std::string format_ms(double ms) {
     return s.str();
 }
 
-// Stage columns of summary.csv in pipeline order; stages not listed follow in order of appearance.
+// Stage columns of summary.csv in pipeline order (result.json gives a reused model's stages back
+// sorted by name); stages not listed follow in order of appearance.
 const std::vector<std::string> kStageOrder = {
-    "load", "tip_slicing", "double_cover", "cut_graph_and_closed_forms", "intrinsic_delaunay",
-    "laplacian_assembly", "analyse", "factorise", "solves", "hodge_star", "holomorphic_basis",
-    "integration", "zeros", "zero_fans", "tracing", "cutting", "patches", "write"};
+    "load", "tip_slicing", "double_cover", "intrinsic_delaunay", "laplacian_assembly",
+    "cut_graph_and_closed_forms", "wedge_matrix", "carry_forms", "analyse", "factorise", "overlap",
+    "solves", "hodge_star", "holomorphic_basis", "integration", "zeros", "zero_fans", "tracing",
+    "cutting", "patches", "write"};
 
 }  // namespace
 

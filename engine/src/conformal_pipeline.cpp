@@ -116,8 +116,6 @@ void laplacian(ConformalWork& work) {
     clock.lap("laplacian_assembly");
 }
 
-void homology(ConformalWork& work) { homology(work, work.result.timings_ms); }
-
 void homology(ConformalWork& work, StageTimes& times) {
     ConformalResult& r = work.result;
     StageClock clock(times);
@@ -138,10 +136,6 @@ void homology(ConformalWork& work, StageTimes& times) {
         work.intrinsic.forms = kernels::carry_forms(work.intrinsic, work.closed_forms());
         clock.lap("carry_forms");
     }
-}
-
-void factorise(ConformalWork& work, FactorizationCache* cache) {
-    factorise(work, cache, work.result.timings_ms);
 }
 
 void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times) {

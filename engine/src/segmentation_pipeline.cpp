@@ -147,14 +147,14 @@ void zeros(SegmentationWork& work) {
     r.timings_ms.insert(r.timings_ms.end(), r.conformal.timings_ms.begin(), r.conformal.timings_ms.end());
     StageClock clock(r.timings_ms);
     // Saddles are counted where the form is harmonic: on the intrinsic Delaunay triangulation
-    // only if the Laplacian was built there, else on the mesh with its own cotan weights.
+    // the Laplacian was built on (its flips replayed on tau), else on the mesh with its own
+    // cotan weights.
     kernels::ZeroOptions zero_options;
-    zero_options.intrinsic_delaunay = work.options.conformal.laplacian == LaplacianKind::IntrinsicDelaunay;
     zero_options.triangulation = r.conformal.intrinsic.get();
+    zero_options.intrinsic_delaunay = zero_options.triangulation != nullptr;
     r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau, zero_options);
     r.conformal.intrinsic.reset();  // nothing after the zeros needs it
-    const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
-    if (!torus) work.regions = zero_regions(r);
+    if (!r.is_torus()) work.regions = zero_regions(r);
     clock.lap("zeros");
 }
 
@@ -202,11 +202,10 @@ void cut(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
     const MeshView& surface = *r.conformal.surface;
-    // No zeros on a torus: it opens along its homology cut graph into one parallelogram. Without
-    // fans the regularised mesh keeps the surface's faces and corners.
-    const bool torus = !r.conformal.double_covered && r.conformal.basis.genus == 1;
+    // A torus opens along its homology cut graph. Without fans the regularised mesh keeps the
+    // surface's faces and corners.
     std::vector<Index> extra_border;
-    if (torus) {
+    if (r.is_torus()) {
         const MeshView& m = r.regular.mesh;
         extra_border.assign(m.n_edges(), kernels::kNoBorder);
         for (Index e = 0; e < m.n_edges(); ++e) {

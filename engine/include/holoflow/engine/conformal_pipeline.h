@@ -119,12 +119,10 @@ ConformalWork prepare(std::shared_ptr<const MeshView> input, ConformalOptions op
 //! pinned.
 void laplacian(ConformalWork& work);
 //! Tree-cotree cut graph, homology loops, closed forms, their wedge matrix; the forms carried onto
-//! the intrinsic triangulation (so after `laplacian`). `times`: where its stage times go (result.timings_ms by default).
-void homology(ConformalWork& work);
+//! the intrinsic triangulation (so after `laplacian`). Stage times go to `times`.
 void homology(ConformalWork& work, StageTimes& times);
 //! Symbolic analysis (from `cache` when given and its pattern was seen), memory check, numeric
-//! factor.
-void factorise(ConformalWork& work, FactorizationCache* cache = nullptr);
+//! factor. Stage times go to `times`.
 void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times);
 //! homology and factorise at once (they are independent); their times, then `overlap`: the
 //! wall time minus their sum (negative when they overlapped), so the stage times add up to wall

@@ -68,7 +68,6 @@ class Graph {
     }
 
     void wait_for_all() { graph_.wait_for_all(); }
-    tbb::flow::graph& flow() { return graph_; }
 
     //! The nodes and edges as a Graphviz digraph, in the order they were added.
     void to_dot(std::ostream& out, const std::string& title) const;
@@ -111,13 +110,13 @@ void run_stage(State& state, const std::string& stage_name, const Stage& stage) 
     state.release();
 }
 
-//! A function_node running `stage` on every item (run_stage semantics), `concurrency` items at
-//! once (unlimited by default: one task per model in flight).
+//! A function_node running `stage` on every item (run_stage semantics), unlimited concurrency:
+//! one task per model in flight (the limiter upstream bounds them).
 template <class State, class Stage>
-tbb::flow::function_node<Item<State>, Item<State>>& add_stage_node(
-    Graph& graph, const std::string& name, Stage stage, std::size_t concurrency = tbb::flow::unlimited) {
+tbb::flow::function_node<Item<State>, Item<State>>& add_stage_node(Graph& graph, const std::string& name,
+                                                                   Stage stage) {
     return graph.add<tbb::flow::function_node<Item<State>, Item<State>>>(
-        name, concurrency, [stage, name](Item<State> item) {
+        name, tbb::flow::unlimited, [stage, name](Item<State> item) {
             run_stage(*item.state, name, stage);
             return item;
         });

@@ -51,6 +51,9 @@ struct SegmentationResult {
     kernels::FlowComplex complex;
     SegmentMode mode = SegmentMode::Layout;
     StageTimes timings_ms;                    //!< conformal stages, then segmentation stages
+
+    //! A closed genus-1 input: no zeros; it opens along its homology cut into one parallelogram.
+    bool is_torus() const { return !conformal.double_covered && conformal.basis.genus == 1; }
 };
 
 //! One model between the segmentation stages (as ConformalWork for the conformal ones, which run
