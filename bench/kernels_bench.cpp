@@ -110,8 +110,7 @@ const ConformalInputs& conformal_inputs(int level) {
     const MeshView& im = in->intrinsic.mesh;
     in->factor =
         kernels::CholeskyFactor::factorize(kernels::CholeskySymbolic::analyse(in->L), in->L);
-    in->omega = in->intrinsic.forms;
-    kernels::add_gradient(im.E, in->factor->solve(in->rhs), in->omega);
+    in->omega = kernels::plus_gradient(im.E, in->intrinsic.forms, in->factor->solve(in->rhs));
     return *cache.emplace(level, std::move(in)).first->second;
 }
 
