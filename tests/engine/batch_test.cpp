@@ -23,11 +23,7 @@ namespace fs = std::filesystem;
 using test::corpus;
 using test::run_cli;
 using test::TempDir;
-
-std::string slurp(const fs::path& file) {
-    std::ifstream in(file, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test::slurp;
 
 // summary.json without what may differ between runs (timings).
 nlohmann::json summary_without_timings(const fs::path& out) {

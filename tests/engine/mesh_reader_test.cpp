@@ -26,6 +26,7 @@ namespace holoflow::engine {
 namespace {
 
 using Polygons = std::vector<std::vector<std::int64_t>>;
+using test::slurp;
 
 // OpenMesh stores float coordinates: a decimal read into float and into double agree to a few
 // float ulps (relative 2^-23 each; 1e-6 leaves room for the decimal -> float double rounding).
@@ -616,11 +617,6 @@ std::vector<std::filesystem::path> corpus_files(const std::string& extension) {
         if (entry.path().extension() == extension) files.push_back(entry.path());
     std::sort(files.begin(), files.end());
     return files;
-}
-
-std::string slurp(const std::filesystem::path& file) {
-    std::ifstream in(file, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 // Same polygon up to a rotation of its corner list.

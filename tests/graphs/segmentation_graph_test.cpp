@@ -19,11 +19,7 @@ namespace {
 
 using test::corpus;
 using test::TempDir;
-
-std::string slurp(const std::filesystem::path& file) {
-    std::ifstream in(file, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test::slurp;
 
 // Everything a model writes, timings left out (they are the only thing allowed to differ).
 std::string fingerprint(const ModelRun& run) {

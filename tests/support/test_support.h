@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <random>
 #include <string>
@@ -25,6 +26,12 @@ inline std::shared_ptr<const MeshView> corpus_mesh(const std::string& name) {
 
 inline std::string shared_mesh(const std::string& name) {
     return std::string(HOLOFLOW_SHARED_MESHES) + "/" + name;
+}
+
+//! The whole file as bytes ("" if it cannot be read).
+inline std::string slurp(const std::filesystem::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 //! A fresh directory under the system temp dir, removed with its contents on destruction.
