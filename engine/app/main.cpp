@@ -241,8 +241,8 @@ int run_batch(const BatchArgs& args) {
     const auto on_done = [&](graphs::ModelRun& run) {
         try {
             engine::write_model_result(run.outcome, settings);
-        } catch (const engine::OutputError& e) {
-            run.outcome.status = engine::Status::failure("output_error", "result", e.what(), engine::kExitOutputError);
+        } catch (...) {
+            run.outcome.status = engine::status_from_exception(std::current_exception(), "result");
         }
         progress.model_finished(!run.outcome.status.ok(), false);
     };
