@@ -36,7 +36,6 @@ std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r) {
     const kernels::ZeroSet& z = r.zeros;
     const kernels::DoubleCover* cover = r.conformal.cover.get();
     const Index first_copy_vertices = r.traced_input->n_vertices();
-    const Index first_copy_faces = r.traced_input->n_faces();
     std::vector<Index> zero_of_cluster(z.clusters.size(), -1);
     for (Index i = 0; i < static_cast<Index>(z.zeros.size()); ++i) zero_of_cluster[z.zeros[i].cluster] = i;
     std::vector<kernels::ZeroRegion> regions;
@@ -53,19 +52,6 @@ std::vector<kernels::ZeroRegion> zero_regions(const SegmentationResult& r) {
         if (zi >= 0) {
             const kernels::Zero& zero = z.zeros[zi];
             if (zero.vertex >= 0) region.vertex = cover ? cover->original_vertex[zero.vertex] : zero.vertex;
-            if (zero.face >= 0) {
-                if (!cover || zero.face < first_copy_faces) {
-                    region.face = zero.face;
-                    region.barycentric = zero.barycentric;
-                    region.image_offset = zero.image_offset;
-                } else {
-                    // Mirror face (corners 0, 2, 1 of the input face); its image is conjugate,
-                    // so only the point is kept (a boundary zero takes a boundary vertex).
-                    region.face = cover->original_face[zero.face];
-                    region.barycentric = {zero.barycentric[0], zero.barycentric[2], zero.barycentric[1]};
-                    region.image_offset = std::conj(zero.image_offset);
-                }
-            }
         }
         regions.push_back(std::move(region));
     }
@@ -267,11 +253,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
     nlohmann::json zeros = nlohmann::json::array();
     for (const kernels::Zero& zero : z.zeros) {
         nlohmann::json j = {{"order", zero.order}, {"cluster", zero.cluster}};
-        if (zero.vertex >= 0) j["vertex"] = zero.vertex;
-        if (zero.face >= 0) {
-            j["face"] = zero.face;
-            j["barycentric"] = zero.barycentric;
-        }
+        j["vertex"] = zero.vertex;
         zeros.push_back(j);
     }
     nlohmann::json types = {{"disk", 0}, {"cylinder", 0}, {"other", 0}};

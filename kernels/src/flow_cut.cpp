@@ -151,9 +151,8 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
             else if (tr.end == Trajectory::End::Collision) s.to = collision_point[i], s.collision_tail = true;
             else s.to = tr.end_vertex;
             if (auto it = landing.find({i, j}); it != landing.end()) {
-                auto list = it->second;
-                std::sort(list.begin(), list.end());
-                for (const auto& [len, id] : list) s.inner.push_back(id);
+                std::sort(it->second.begin(), it->second.end());  // in place: one lookup per segment
+                for (const auto& [len, id] : it->second) s.inner.push_back(id);
             }
             face_segments[tr.segment_face(mesh, j)].push_back(std::move(s));
         }
@@ -166,6 +165,9 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     const auto corner_image = [&](Index f, int k) {
         return k == 0 ? Complex(0) : k == 1 ? along[3 * f] : -along[3 * f + 2];
     };
+    const auto label = [&](Index h) {
+        return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[h]];
+    };
 
     // Per face: split and triangulate (each face writes its own slot).
     std::vector<std::vector<Triangle>> face_triangles(nf);
@@ -174,7 +176,6 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
         std::vector<Complex> pos;
         for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
-            const auto label = [&](int k) { return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[3 * f + k]]; };
             auto& segs = face_segments[f];
             if (segs.empty()) continue;  // kept as it is by the assembly (no allocation per face)
             Polygon poly;
@@ -182,7 +183,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
             for (int k = 0; k < 3; ++k) {
                 const Index h = 3 * f + k;
                 poly.points.push_back(mesh.F(f, k));
-                poly.edge.push_back(label(k));
+                poly.edge.push_back(label(h));
                 local.emplace_back(mesh.F(f, k), corner_image(f, k));
                 const auto& list = edge_points[mesh.halfedge_edge[h]];
                 const bool forward = mesh.edge_sign(h) > 0;
@@ -190,7 +191,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                     const auto& [t_edge, id] = list[forward ? q : list.size() - 1 - q];
                     const double t = forward ? t_edge : 1 - t_edge;
                     poly.points.push_back(id);
-                    poly.edge.push_back(label(k));
+                    poly.edge.push_back(label(h));
                     local.emplace_back(id, corner_image(f, k) + t * along[h]);
                 }
             }
@@ -274,7 +275,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 const Index h = 3 * f + k;
                 F(g, k) = mesh.F(f, k);
                 along_new[3 * g + k] = corner_image(f, (k + 1) % 3) - corner_image(f, k);
-                halfedge_cut[3 * g + k] = edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[h]];
+                halfedge_cut[3 * g + k] = label(h);
             }
             ++g;
             continue;

@@ -139,7 +139,8 @@ Index argmax(const std::vector<double>& x) {
     return static_cast<Index>(std::max_element(x.begin(), x.end()) - x.begin());
 }
 
-TipMeasure measure_on(const MeshView& mesh, const VertexGraph& g, int samples) {
+TipMeasure measure_on(const MeshView& mesh, const VertexGraph& g, const std::vector<char>& on_boundary,
+                      int samples) {
     const Index n_v = mesh.n_vertices();
     Dijkstra dijkstra(g);
     TipMeasure m;
@@ -149,7 +150,6 @@ TipMeasure measure_on(const MeshView& mesh, const VertexGraph& g, int samples) {
     std::vector<double> from_a = dijkstra.full(std::span<const Index>(&a, 1));
     m.diameter = *std::max_element(from_a.begin(), from_a.end());
 
-    const std::vector<char> on_boundary = boundary_vertex_flags(mesh);
     if (std::find(on_boundary.begin(), on_boundary.end(), 1) != on_boundary.end()) {
         // With a boundary, extremities are the vertices far from it (a hole at the border would
         // only notch the existing loop).
@@ -268,7 +268,7 @@ TipMeasure compute_tip_measure(const MeshView& mesh, const TipOptions& options) 
     HOLOFLOW_REQUIRE(options.samples >= 1, "samples must be at least 1");
     const VertexGraph g = build_graph(mesh);
     HOLOFLOW_REQUIRE(is_connected(g), "mesh is empty or has several components");
-    return measure_on(mesh, g, options.samples);
+    return measure_on(mesh, g, boundary_vertex_flags(mesh), options.samples);
 }
 
 TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
@@ -280,15 +280,15 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
     const VertexGraph g = build_graph(mesh);
     HOLOFLOW_REQUIRE(is_connected(g), "mesh is empty or has several components");
 
+    const std::vector<char> on_boundary = boundary_vertex_flags(mesh);
     TipDetection out;
-    out.measure = measure_on(mesh, g, options.samples);
+    out.measure = measure_on(mesh, g, on_boundary, options.samples);
     const std::vector<double>& value = out.measure.value;
     const double diameter = out.measure.diameter;
     const double threshold = options.prominence * diameter;
     const Higher higher{value};
 
     // Candidates: interior maxima prominent enough, most prominent first.
-    const std::vector<char> on_boundary = boundary_vertex_flags(mesh);
     const std::vector<double> prominence = peak_prominence(g, value);
     std::vector<Index> candidates;
     for (Index v = 0; v < g.n_vertices(); ++v)

@@ -10,6 +10,7 @@
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/union_find.h"
+#include "holoflow/kernels/zeros.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -25,9 +26,15 @@ constexpr double kDegenerateTol = 1e-12;   // 3D cross product relative to squar
 constexpr double kTouchTol = 1e-10;        // image distances relative to the region's extent
 constexpr Index kCentre = -1;              // point id of the centre in a triangle
 
-double corner_angle(Complex from, Complex to) {
-    const Complex r = std::conj(from) * to;
-    return std::atan2(r.imag(), r.real());
+// Image angle at the tail of halfedge h, between h and the reverse of the previous halfedge.
+double tail_angle(const std::vector<Complex>& along, Index h) {
+    return corner_angle(along[h], -along[MeshView::prev(h)]);
+}
+
+// The 3D triangle x y z is not degenerate.
+bool solid(const Eigen::RowVector3d& x, const Eigen::RowVector3d& y, const Eigen::RowVector3d& z) {
+    const Eigen::RowVector3d e1 = y - x, e2 = z - x;
+    return e1.cross(e2).norm() > kDegenerateTol * (e1.squaredNorm() + e2.squaredNorm());
 }
 
 bool ccw(Complex a, Complex b, Complex c) {
@@ -151,11 +158,11 @@ class Builder {
             double sum = 0;
             for (int k = 0; k < 3; ++k) {
                 const Index h = 3 * f + k;
-                angle_[h] = corner_angle(along_[h], -along_[MeshView::prev(h)]);
+                angle_[h] = tail_angle(along_, h);
                 total[mesh.tail(h)] += angle_[h];
                 sum += angle_[h];
             }
-            flip_[f] = static_cast<int>(std::lround((std::numbers::pi - sum) / (2 * std::numbers::pi)));
+            flip_[f] = image_flips(sum);
         }
         for (Index v = 0; v < mesh.n_vertices(); ++v)
             winding_[v] = static_cast<int>(std::lround(total[v] / (2 * std::numbers::pi)));
@@ -272,12 +279,6 @@ class Builder {
     // The whole tangle around the region: the connected flips and windings != 1 (over mesh
     // edges) that touch it, with every zero inside, whose separate regions failed.
     void take_tangle(std::vector<Group>& groups, Index g, std::vector<Index>& faces) {
-        const auto special = [&](Index v) {
-            if (!boundary_[v] && winding_[v] != 1) return true;
-            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i)
-                if (flip_[vf_.faces[i]]) return true;
-            return false;
-        };
         std::vector<Index> queue;
         ++generation_;
         for (Index f : faces)
@@ -294,17 +295,38 @@ class Builder {
                 }
         }
         for (Index v : queue) star(v, faces);
-        normalise(faces);
         for (Index o = 0; o < static_cast<Index>(groups.size()); ++o) {
-            if (o == g || groups[o].accepted || groups[o].absorbed_into >= 0 || groups[o].order <= 0) continue;
+            if (o == g || !unplaced_zero(groups[o])) continue;
             bool inside = false;
             for (Index r : groups[o].members)
                 inside = inside || (regions_[r].vertex >= 0 && stamp_[regions_[r].vertex] == generation_);
-            if (!inside) continue;
-            groups[o].absorbed_into = g;
-            groups[g].order += groups[o].order;
-            groups[g].members.insert(groups[g].members.end(), groups[o].members.begin(), groups[o].members.end());
+            if (inside) absorb(groups, g, o, faces);
         }
+        normalise(faces);
+    }
+
+    // A flip around v, or (inside the mesh) a winding other than 1.
+    bool special(Index v) const {
+        if (!boundary_[v] && winding_[v] != 1) return true;
+        for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i)
+            if (flip_[vf_.faces[i]]) return true;
+        return false;
+    }
+
+    // A zero neither placed nor taken in by another region yet.
+    static bool unplaced_zero(const Group& group) {
+        return !group.accepted && group.absorbed_into < 0 && group.order > 0;
+    }
+
+    // Group o joins group g: its regions and order, and its faces (freed) are added to `faces`.
+    void absorb(std::vector<Group>& groups, Index g, Index o, std::vector<Index>& faces) {
+        Group& other = groups[o];
+        other.accepted = false;
+        other.absorbed_into = g;
+        groups[g].order += other.order;
+        groups[g].members.insert(groups[g].members.end(), other.members.begin(), other.members.end());
+        for (Index x : other.result.faces) owner_[x] = -1, faces.push_back(x);
+        other.result = Retriangulation{};
     }
 
     void add_seeds(const ZeroRegion& region, std::vector<Index>& faces) const {
@@ -328,15 +350,6 @@ class Builder {
     // Faces of accepted regions: a fold (order 0) on either side joins this region; two zeros
     // never merge (each keeps its own centre), so the other zero's faces are left out.
     void absorb_or_block(std::vector<Group>& groups, Index g, std::vector<Index>& faces, bool merge_zeros) {
-        const auto absorb = [&](Index o, std::vector<Index>& kept) {
-            Group& other = groups[o];
-            other.accepted = false;
-            other.absorbed_into = g;
-            groups[g].order += other.order;
-            groups[g].members.insert(groups[g].members.end(), other.members.begin(), other.members.end());
-            for (Index x : other.result.faces) owner_[x] = -1, kept.push_back(x);
-            other.result = Retriangulation{};
-        };
         for (bool changed = true; changed;) {
             changed = false;
             std::vector<Index> kept;
@@ -347,14 +360,14 @@ class Builder {
                     continue;
                 }
                 if (groups[o].order > 0 && groups[g].order > 0 && !merge_zeros) continue;  // blocked
-                absorb(o, kept);
+                absorb(groups, g, o, kept);
                 changed = true;
             }
             if (merge_zeros) {
                 // Zeros not placed yet whose point the region covers.
                 for (Index f : faces) mark_[f] = 1;
                 for (Index o = 0; o < static_cast<Index>(groups.size()); ++o) {
-                    if (o == g || groups[o].accepted || groups[o].absorbed_into >= 0 || groups[o].order <= 0) continue;
+                    if (o == g || !unplaced_zero(groups[o])) continue;
                     bool inside = false;
                     for (Index r : groups[o].members) {
                         const ZeroRegion& region = regions_[r];
@@ -363,7 +376,7 @@ class Builder {
                             for (Index i = vf_.start[region.vertex]; i < vf_.start[region.vertex + 1]; ++i)
                                 inside = inside || mark_[vf_.faces[i]];
                     }
-                    if (inside) absorb(o, kept), changed = true;
+                    if (inside) absorb(groups, g, o, kept), changed = true;
                 }
                 for (Index f : faces) mark_[f] = 0;
             }
@@ -423,11 +436,8 @@ class Builder {
             }
         normalise(border);
         std::vector<Index> add;
-        for (Index v : border) {
-            bool special = !boundary_[v] && winding_[v] != 1;
-            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) special = special || flip_[vf_.faces[i]];
-            if (special) star(v, add);
-        }
+        for (Index v : border)
+            if (special(v)) star(v, add);
         for (Index v : diagnosis.bad_vertices) star(v, add);
         bool grew = false;
         for (Index f : add) grew = grew || !mark_[f];
@@ -838,8 +848,7 @@ class Builder {
         std::vector<std::pair<Index, double>> inside;  // per chain point: its vertex, new angles
         for (const auto& t : out.triangles) {
             if (!ccw(image(t[0]), image(t[1]), image(t[2]))) return false;
-            const Eigen::RowVector3d e1 = position(t[1]) - position(t[0]), e2 = position(t[2]) - position(t[0]);
-            if (!(e1.cross(e2).norm() > kDegenerateTol * (e1.squaredNorm() + e2.squaredNorm()))) return false;
+            if (!solid(position(t[0]), position(t[1]), position(t[2]))) return false;
             for (int k = 0; k < 3; ++k)
                 if (t[k] != kCentre)
                     inside.emplace_back(vertex_of(out, t[k]), corner_angle(image(t[(k + 1) % 3]) - image(t[k]),
@@ -922,7 +931,6 @@ class Builder {
     Index face_cap_ = 0;
 };
 
-
 // Flipped image triangles that one edge flip repairs: where the image of the two faces across
 // an edge is a simple quadrilateral with the other diagonal inside, that diagonal gives two
 // counter-clockwise image triangles (the 3D triangles must stay non-degenerate and the new
@@ -984,11 +992,9 @@ Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std:
             const Complex ia = 0, ib = along[h], ic = ib + along[MeshView::next(h)], id = along[MeshView::next(t)];
             // New faces (c, a, d) and (d, b, c).
             if (!ccw(ic, ia, id) || !ccw(id, ib, ic)) continue;
-            const auto solid = [&](Index x, Index y, Index z) {
-                const Eigen::RowVector3d e1 = mesh.V.row(y) - mesh.V.row(x), e2 = mesh.V.row(z) - mesh.V.row(x);
-                return e1.cross(e2).norm() > kDegenerateTol * (e1.squaredNorm() + e2.squaredNorm());
-            };
-            if (!solid(c, a, d) || !solid(d, b, c)) continue;
+            if (!solid(mesh.V.row(c), mesh.V.row(a), mesh.V.row(d)) ||
+                !solid(mesh.V.row(d), mesh.V.row(b), mesh.V.row(c)))
+                continue;
             // Outer halfedges keep their twins: c->a, a->d, d->b, b->c.
             const Index ca = MeshView::prev(h), bc = MeshView::next(h), ad = MeshView::next(t), db = MeshView::prev(t);
             const Index o_ca = twin[ca], o_bc = twin[bc], o_ad = twin[ad], o_db = twin[db];
@@ -1016,40 +1022,6 @@ Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std:
     for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along[out.mesh.edge_halfedge[e]];
     return out;
 }
-
-RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions);
-
-}  // namespace
-
-RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau,
-                                 std::span<const ZeroRegion> regions) {
-    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
-    for (const ZeroRegion& r : regions) {
-        for (Index v : r.vertices) HOLOFLOW_REQUIRE(v >= 0 && v < mesh.n_vertices(), "region vertex out of range");
-        HOLOFLOW_REQUIRE(r.vertex < mesh.n_vertices() && r.face < mesh.n_faces(), "region position out of range");
-        HOLOFLOW_REQUIRE(!r.vertices.empty() || r.vertex >= 0 || r.face >= 0, "empty region");
-    }
-    if (regions.empty()) return regularise_on(mesh, tau, regions);
-    // Edge flips first: they repair what they can without losing a vertex. A face holding a
-    // zero's point stays, the point is placed in it.
-    std::vector<char> keep(mesh.n_faces(), 0);
-    for (const ZeroRegion& r : regions)
-        if (r.face >= 0) keep[r.face] = 1;
-    const Flipped flipped = flip_folds(mesh, tau, keep);
-    std::vector<ZeroRegion> moved(regions.begin(), regions.end());
-    for (ZeroRegion& r : moved)
-        if (r.face >= 0 && flipped.original_face[r.face] < 0) {
-            for (int k = 0; k < 3; ++k) r.vertices.push_back(mesh.F(r.face, k));
-            r.face = -1;  // its triangle is gone: the region's vertices carry it
-        }
-    RegularisedForm out = regularise_on(flipped.mesh, flipped.tau, moved);
-    for (Index& f : out.original_face)
-        if (f >= 0) f = flipped.original_face[f];
-    out.edge_flips = flipped.flips;
-    return out;
-}
-
-namespace {
 
 RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions) {
     RegularisedForm out;
@@ -1175,17 +1147,15 @@ RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau,
             if (t != kNoHalfedge && chain_owner[t] >= 0) twin[chain_owner[h]] = chain_owner[t];
         }
 
+    // An accepted group lists every region it took in (absorbed groups' members included).
     out.region_vertex.assign(regions.size(), -1);
     for (std::size_t g = 0; g < groups.size(); ++g) {
-        // Follow absorptions to the region that was re-triangulated.
-        Index root = static_cast<Index>(g);
-        while (groups[root].absorbed_into >= 0) root = groups[root].absorbed_into;
-        if (!groups[root].accepted) continue;
-        const Retriangulation& r = groups[root].result;
+        if (!groups[g].accepted) continue;
+        const Retriangulation& r = groups[g].result;
         const Index v = r.kept         ? new_vertex[r.centre]
-                        : r.has_centre ? centre_vertex[root]
+                        : r.has_centre ? centre_vertex[g]
                                        : new_vertex[mesh.tail(r.chain.front())];
-        for (Index member : groups[root].members) out.region_vertex[member] = v;
+        for (Index member : groups[g].members) out.region_vertex[member] = v;
     }
     for (std::size_t r = 0; r < regions.size(); ++r) {
         if (out.region_vertex[r] < 0) ++out.failed_regions;
@@ -1199,14 +1169,35 @@ RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau,
     // What is left: flipped image triangles anywhere (failed regions, or none).
     for (Index f = 0; f < out.mesh.n_faces(); ++f) {
         double sum = 0;
-        for (int k = 0; k < 3; ++k) {
-            const Index h = 3 * f + k;
-            sum += corner_angle(along_new[h], -along_new[MeshView::prev(h)]);
-        }
-        out.flipped_faces += std::lround((std::numbers::pi - sum) / (2 * std::numbers::pi)) != 0;
+        for (int k = 0; k < 3; ++k) sum += tail_angle(along_new, 3 * f + k);
+        out.flipped_faces += image_flips(sum) != 0;
     }
     return out;
 }
 
 }  // namespace
+
+RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                 std::span<const ZeroRegion> regions) {
+    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
+    for (const ZeroRegion& r : regions) {
+        for (Index v : r.vertices) HOLOFLOW_REQUIRE(v >= 0 && v < mesh.n_vertices(), "region vertex out of range");
+        HOLOFLOW_REQUIRE(r.vertex < mesh.n_vertices() && r.face < mesh.n_faces(), "region position out of range");
+        HOLOFLOW_REQUIRE(!r.vertices.empty() || r.vertex >= 0 || r.face >= 0, "empty region");
+    }
+    if (regions.empty()) return regularise_on(mesh, tau, regions);
+    // Edge flips first: they repair what they can without losing a vertex. A face holding a
+    // zero's point stays, the point is placed in it.
+    std::vector<char> keep(mesh.n_faces(), 0);
+    for (const ZeroRegion& r : regions)
+        if (r.face >= 0) keep[r.face] = 1;
+    const Flipped flipped = flip_folds(mesh, tau, keep);
+    // Flips keep vertex and face ids and never touch a kept face: the regions hold as given.
+    RegularisedForm out = regularise_on(flipped.mesh, flipped.tau, regions);
+    for (Index& f : out.original_face)
+        if (f >= 0) f = flipped.original_face[f];
+    out.edge_flips = flipped.flips;
+    return out;
+}
+
 }  // namespace holoflow::kernels

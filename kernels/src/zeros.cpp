@@ -28,11 +28,6 @@ Complex image_direction(const MeshView& mesh, const Eigen::VectorXcd& tau, Index
     return sign * (generic != Complex(0) ? generic : Complex(1, 0));
 }
 
-double corner_angle(Complex from, Complex to) {
-    const Complex r = std::conj(from) * to;
-    return std::atan2(r.imag(), r.real());
-}
-
 // Image windings and flips of the mesh's piecewise linear image.
 void count_windings(const MeshView& mesh, const Eigen::VectorXcd& tau, ZeroSet& z) {
     const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
@@ -48,9 +43,8 @@ void count_windings(const MeshView& mesh, const Eigen::VectorXcd& tau, ZeroSet& 
                 angle[h] = a;
                 sum += a;
             }
-            // sum is pi (counter-clockwise image), -pi (flipped) or 3 pi (all three angles pi);
-            // the count below keeps the identity exact for any of them.
-            z.face_flip[f] = static_cast<int>(std::lround((std::numbers::pi - sum) / (2 * std::numbers::pi)));
+            // Counting -1 for 3 pi keeps the identity exact whatever the sum.
+            z.face_flip[f] = image_flips(sum);
         }
     });
     std::vector<double> vertex_angle(nv, 0.0);
@@ -137,8 +131,8 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
 
     // Saddles, on the intrinsic Delaunay triangulation when asked (same vertices, the form
     // carried exactly through the flips); a mesh it cannot take (zero-area faces) counts on
-    // itself.
-    std::vector<std::pair<Index, Index>> intrinsic_edges;
+    // itself. Its edges between two saddles join their groups below.
+    std::vector<std::pair<Index, Index>> intrinsic_saddle_edges;
     {
         Eigen::MatrixXd forms(mesh.n_edges(), 2);
         forms.col(0) = tau.real();
@@ -153,7 +147,11 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
                                  "the given intrinsic triangulation is not of this mesh");
                 const Eigen::MatrixXd carried = carry_forms(t, forms);
                 z.saddle_order = count_saddles(t.mesh, carried.col(0), carried.col(1));
-                for (Index e = 0; e < t.mesh.n_edges(); ++e) intrinsic_edges.emplace_back(t.mesh.E(e, 0), t.mesh.E(e, 1));
+                for (Index e = 0; e < t.mesh.n_edges(); ++e) {
+                    const Index a = t.mesh.E(e, 0), b = t.mesh.E(e, 1);
+                    if (a != b && z.saddle_order[a] != 0 && z.saddle_order[b] != 0)
+                        intrinsic_saddle_edges.emplace_back(a, b);
+                }
                 z.intrinsic = done = true;
             } catch (const InvalidInput&) {
                 if (options.triangulation) throw;  // a wrong triangulation is the caller's bug
@@ -172,8 +170,7 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     for (Index e = 0; e < mesh.n_edges(); ++e)
         if (special[mesh.E(e, 0)] && special[mesh.E(e, 1)] && mesh.E(e, 0) != mesh.E(e, 1))
             pairs.emplace_back(mesh.E(e, 0), mesh.E(e, 1));
-    for (const auto& [a, b] : intrinsic_edges)
-        if (a != b && z.saddle_order[a] != 0 && z.saddle_order[b] != 0) pairs.emplace_back(a, b);
+    pairs.insert(pairs.end(), intrinsic_saddle_edges.begin(), intrinsic_saddle_edges.end());
     const Adjacency adj = special_adjacency(nv, pairs);
 
     // Saddle groups: adjacent vertices with m_v != 0. Every other special vertex joins the

@@ -54,15 +54,7 @@ Index unfinished(const SegmentationResult& r) {
 std::vector<Eigen::RowVector3d> zero_positions(const SegmentationResult& r) {
     const MeshView& s = *r.conformal.surface;
     std::vector<Eigen::RowVector3d> out;
-    for (const kernels::Zero& z : r.zeros.zeros) {
-        if (z.vertex >= 0) {
-            out.push_back(s.V.row(z.vertex));
-            continue;
-        }
-        Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
-        for (int k = 0; k < 3; ++k) x += z.barycentric[k] * s.V.row(s.F(z.face, k));
-        out.push_back(x);
-    }
+    for (const kernels::Zero& z : r.zeros.zeros) out.push_back(s.V.row(z.vertex));
     return out;
 }
 

@@ -9,28 +9,15 @@
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/flow_cut.h"
-#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/zero_fans.h"
+#include "support/plane_zeros.h"
 #include "support/test_support.h"
 
 namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
-
-// Flat grid over [-1.5, 1.5]^2 turned by a generic angle (no edge along an axis).
-MeshView turned_grid(int n) {
-    MeshView m = shapes::flat_grid(n, n);
-    const double c = std::cos(0.3), s = std::sin(0.3);
-    for (Index v = 0; v < m.n_vertices(); ++v) {
-        const double x = 3 * m.V(v, 0) - 1.5, y = 3 * m.V(v, 1) - 1.5;
-        m.V(v, 0) = c * x - s * y;
-        m.V(v, 1) = s * x + c * y;
-    }
-    return m;
-}
-
-Complex point(const MeshView& m, Index v) { return {m.V(v, 0), m.V(v, 1)}; }
+using test::turned_grid;
 
 // The grid with the simple zeros of f (at the given points) regularised into fan centres.
 struct Regularised {
@@ -38,24 +25,12 @@ struct Regularised {
     std::vector<Index> zeros;
 };
 
-Regularised regularise(const MeshView& m, const std::function<Complex(Complex)>& f, std::vector<Complex> at) {
-    Eigen::VectorXcd tau(m.n_edges());
-    for (Index e = 0; e < m.n_edges(); ++e) tau(e) = f(point(m, m.E(e, 1))) - f(point(m, m.E(e, 0)));
+Regularised regularise(const MeshView& m, const std::function<Complex(Complex)>& f, const std::vector<Complex>& at) {
+    std::vector<Complex> values(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) values[v] = f(test::point(m, v));
     std::vector<ZeroRegion> regions;
-    for (Complex z : at) {
-        ZeroRegion r;
-        r.order = 1;
-        for (Index g = 0; g < m.n_faces() && r.face < 0; ++g) {
-            const Complex a = point(m, m.F(g, 0)), b = point(m, m.F(g, 1)), c = point(m, m.F(g, 2));
-            const double area = cross(b - a, c - a);
-            const double b1 = cross(z - a, c - a) / area, b2 = cross(b - a, z - a) / area;
-            if (b1 > 0 && b2 > 0 && b1 + b2 < 1) r.face = g, r.barycentric = {1 - b1 - b2, b1, b2};
-        }
-        for (int k = 0; k < 3; ++k) r.vertices.push_back(m.F(r.face, k));
-        r.image_offset = f(z) - f(point(m, m.F(r.face, 0)));
-        regions.push_back(r);
-    }
-    Regularised out{regularise_zeros(m, tau, regions), {}};
+    for (Complex z : at) regions.push_back(test::face_zero(m, z, 1, f));
+    Regularised out{regularise_zeros(m, test::form_of(m, values), regions), {}};
     for (Index v : out.form.region_vertex) out.zeros.push_back(v);
     return out;
 }

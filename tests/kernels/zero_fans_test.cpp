@@ -4,64 +4,23 @@
 
 #include <cmath>
 #include <complex>
-#include <functional>
 #include <numbers>
 
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/shapes.h"
+#include "support/plane_zeros.h"
 #include "support/test_support.h"
 
 namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
+using test::face_zero;
+using test::form_of;
+using test::point;
+using test::turned_grid;
 constexpr double kClosedTol = 1e-12;  // a face's three form values cancel up to rounding
-
-// Flat grid over [-1.5, 1.5]^2 turned by a generic angle (no edge along an axis).
-MeshView turned_grid(int n) {
-    MeshView m = shapes::flat_grid(n, n);
-    const double c = std::cos(0.3), s = std::sin(0.3);
-    for (Index v = 0; v < m.n_vertices(); ++v) {
-        const double x = 3 * m.V(v, 0) - 1.5, y = 3 * m.V(v, 1) - 1.5;
-        m.V(v, 0) = c * x - s * y;
-        m.V(v, 1) = s * x + c * y;
-    }
-    return m;
-}
-
-// The exact form d f for f given at the vertices.
-Eigen::VectorXcd form_of(const MeshView& m, const std::vector<Complex>& f) {
-    Eigen::VectorXcd tau(m.n_edges());
-    for (Index e = 0; e < m.n_edges(); ++e) tau(e) = f[m.E(e, 1)] - f[m.E(e, 0)];
-    return tau;
-}
-
-Complex point(const MeshView& m, Index v) { return {m.V(v, 0), m.V(v, 1)}; }
-
-// The face whose 2D triangle holds z, with its barycentric coordinates.
-Index face_containing(const MeshView& m, Complex z, std::array<double, 3>& bary) {
-    for (Index f = 0; f < m.n_faces(); ++f) {
-        const Complex a = point(m, m.F(f, 0)), b = point(m, m.F(f, 1)), c = point(m, m.F(f, 2));
-        const double area = cross(b - a, c - a);
-        const double b1 = cross(z - a, c - a) / area, b2 = cross(b - a, z - a) / area;
-        if (b1 > 0 && b2 > 0 && b1 + b2 < 1) {
-            bary = {1 - b1 - b2, b1, b2};
-            return f;
-        }
-    }
-    return -1;
-}
-
-// A region for a zero of f at z inside a face of m.
-ZeroRegion face_zero(const MeshView& m, Complex z, int order, const std::function<Complex(Complex)>& f) {
-    ZeroRegion r;
-    r.order = order;
-    r.face = face_containing(m, z, r.barycentric);
-    for (int k = 0; k < 3; ++k) r.vertices.push_back(m.F(r.face, k));
-    r.image_offset = f(z) - f(point(m, m.F(r.face, 0)));
-    return r;
-}
 
 struct ImageCheck {
     Index flipped = 0;

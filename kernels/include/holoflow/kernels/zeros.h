@@ -1,7 +1,9 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <complex>
+#include <numbers>
 #include <vector>
 
 #include <Eigen/Core>
@@ -9,6 +11,18 @@
 #include "holoflow/kernels/mesh_view.h"
 
 namespace holoflow::kernels {
+
+//! Angle in [-pi, pi] turning `from` into `to`: an image corner's angle between its two edges.
+inline double corner_angle(std::complex<double> from, std::complex<double> to) {
+    const std::complex<double> r = std::conj(from) * to;
+    return std::atan2(r.imag(), r.real());
+}
+
+//! Flips of an image triangle from the sum of its three corner angles: 0 for pi
+//! (counter-clockwise), 1 for -pi (flipped), -1 for 3 pi (all three angles pi).
+inline int image_flips(double angle_sum) {
+    return static_cast<int>(std::lround((std::numbers::pi - angle_sum) / (2 * std::numbers::pi)));
+}
 
 //! Special vertices that touch: saddles (saddle_order != 0), vertices with image winding != 1
 //! and corners of flipped image triangles (DESIGN 2.5). A component holding several saddle
@@ -24,12 +38,7 @@ struct ZeroCluster {
 struct Zero {
     int order = 0;
     Index cluster = -1;  //!< in ZeroSet::clusters
-    Index vertex = -1;   //!< the zero sits at this vertex, or
-    Index face = -1;     //!< inside this face, at
-    std::array<double, 3> barycentric{};  //!< weights of F(face, 0..2)
-    //! Image of the zero minus the image of `vertex` (0) or of F(face, 0): where the integrated
-    //! form takes its critical value, in any chart that contains the face.
-    std::complex<double> image_offset{};
+    Index vertex = -1;   //!< the saddle vertex it sits at
 };
 
 struct ZeroSet {
