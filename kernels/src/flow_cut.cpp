@@ -162,9 +162,6 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     std::vector<Complex> along(mesh.n_halfedges());
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
         along[h] = form_along(mesh, tau, h);
-    const auto corner_image = [&](Index f, int k) {
-        return k == 0 ? Complex(0) : k == 1 ? along[3 * f] : -along[3 * f + 2];
-    };
     const auto label = [&](Index h) {
         return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[h]];
     };
@@ -184,7 +181,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 const Index h = 3 * f + k;
                 poly.points.push_back(mesh.F(f, k));
                 poly.edge.push_back(label(h));
-                local.emplace_back(mesh.F(f, k), corner_image(f, k));
+                local.emplace_back(mesh.F(f, k), chart_corner(along, f, k));
                 const auto& list = edge_points[mesh.halfedge_edge[h]];
                 const bool forward = mesh.edge_sign(h) > 0;
                 for (std::size_t q = 0; q < list.size(); ++q) {
@@ -192,14 +189,14 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                     const double t = forward ? t_edge : 1 - t_edge;
                     poly.points.push_back(id);
                     poly.edge.push_back(label(h));
-                    local.emplace_back(id, corner_image(f, k) + t * along[h]);
+                    local.emplace_back(id, chart_corner(along, f, k) + t * along[h]);
                 }
             }
             // Collision points: each ends a curve stopped here (and lies on its blocker's segment).
             for (const FaceSegment& s : segs)
                 if (s.collision_tail) {
                     const auto& b = point_in_face[s.to - first_inner].second;
-                    local.emplace_back(s.to, b[1] * corner_image(f, 1) + b[2] * corner_image(f, 2));
+                    local.emplace_back(s.to, b[1] * chart_corner(along, f, 1) + b[2] * chart_corner(along, f, 2));
                 }
             // Through-going segments first, then curves stopped here, latest stop first. A
             // collision point exists only once its blocker's segment is in, and a blocker may
@@ -274,7 +271,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
             for (int k = 0; k < 3; ++k) {
                 const Index h = 3 * f + k;
                 F(g, k) = mesh.F(f, k);
-                along_new[3 * g + k] = corner_image(f, (k + 1) % 3) - corner_image(f, k);
+                along_new[3 * g + k] = chart_corner(along, f, (k + 1) % 3) - chart_corner(along, f, k);
                 halfedge_cut[3 * g + k] = label(h);
             }
             ++g;

@@ -132,7 +132,7 @@ class Tracer {
 
     // Image of a point of face f in its chart (corner 0 at 0).
     Complex corner_image(Index f, int k) const {
-        return k == 0 ? Complex(0) : k == 1 ? along_[3 * f] : -along_[3 * f + 2];
+        return chart_corner(along_, f, k);
     }
     Complex crossing_image(Index f, const EdgeCrossing& c) const {
         // c.halfedge lies in face f, or is the twin of one of f's halfedges.

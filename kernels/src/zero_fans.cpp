@@ -460,7 +460,7 @@ class Builder {
     }
 
     Complex corner_image(Index f, int k) const {
-        return origin_[f] + (k == 0 ? Complex(0) : k == 1 ? along_[3 * f] : -along_[3 * f + 2]);
+        return origin_[f] + chart_corner(along_, f, k);
     }
     bool is_chain(Index v) const { return chain_stamp_[v] == generation_; }
 

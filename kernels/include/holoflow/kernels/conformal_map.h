@@ -16,6 +16,12 @@ inline std::complex<double> form_along(const MeshView& mesh, const Eigen::Vector
     return static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
 }
 
+//! Image of corner k of face f in the face's own chart (corner 0 at the origin), from the form's
+//! values along the halfedges (`along[h]` = form_along(mesh, tau, h)).
+inline std::complex<double> chart_corner(std::span<const std::complex<double>> along, Index f, int k) {
+    return k == 0 ? std::complex<double>(0) : k == 1 ? along[3 * f] : -along[3 * f + 2];
+}
+
 //! Cross product of two plane vectors given as complex numbers (twice their triangle's signed area).
 inline double cross(std::complex<double> a, std::complex<double> b) {
     return a.real() * b.imag() - a.imag() * b.real();
