@@ -254,6 +254,14 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
     for (const kernels::Zero& zero : z.zeros) {
         nlohmann::json j = {{"order", zero.order}, {"cluster", zero.cluster}};
         j["vertex"] = zero.vertex;
+        if (zero.point.face >= 0) {
+            const MeshView& surface = *r.conformal.surface;
+            Eigen::RowVector3d position = Eigen::RowVector3d::Zero();
+            for (int k = 0; k < 3; ++k) position += zero.point.barycentric[k] * surface.V.row(surface.F(zero.point.face, k));
+            j["face"] = zero.point.face;
+            j["barycentric"] = zero.point.barycentric;
+            j["position"] = {position(0), position(1), position(2)};
+        }
         zeros.push_back(j);
     }
     nlohmann::json types = {{"disk", 0}, {"cylinder", 0}, {"other", 0}};

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <numbers>
 
+#include <Eigen/Geometry>
+#include <Eigen/QR>
+
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
@@ -266,10 +269,123 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         zero.cluster = c;
         for (Index v : cluster.vertices)
             if (zero.vertex < 0 || z.saddle_order[v] > z.saddle_order[zero.vertex]) zero.vertex = v;
+        zero.point = refine_zero(mesh, tau, zero.vertex, zero.order);
         z.total_order += zero.order;
         z.zeros.push_back(zero);
     }
     return z;
+}
+
+ZeroPoint refine_zero(const MeshView& mesh, const Eigen::VectorXcd& tau, Index vertex, int order) {
+    HOLOFLOW_REQUIRE(vertex >= 0 && vertex < mesh.n_vertices() && tau.size() == mesh.n_edges(),
+                     "refine_zero needs a vertex of the mesh and one form value per edge");
+    ZeroPoint out;
+    if (order < 1) return out;
+    // The star counter-clockwise: outgoing halfedges h_i = vertex -> head(h_i).
+    std::vector<Index> star;
+    const Index start = mesh.vertex_halfedge[vertex];
+    for (Index h = start;;) {
+        star.push_back(h);
+        h = mesh.rotate(h);
+        if (h == kNoHalfedge || static_cast<Index>(star.size()) > mesh.n_halfedges()) return out;
+        if (h == start) break;
+    }
+    const int degree = order + 1;
+    const Index n = static_cast<Index>(star.size());
+    if (n < degree + 1) return out;
+    const Eigen::RowVector3d p = mesh.V.row(vertex);
+    std::vector<double> radius(n), angle(n + 1, 0.0);  // angle[i]: phi of head(h_i)
+    for (Index i = 0; i < n; ++i) {
+        const Eigen::RowVector3d a = mesh.V.row(mesh.head(star[i])) - p;
+        const Eigen::RowVector3d b = mesh.V.row(mesh.head(MeshView::next(star[i]))) - p;
+        radius[i] = a.norm();
+        angle[i + 1] = angle[i] + std::atan2(a.cross(b).norm(), a.dot(b));
+    }
+    const double total = angle[n];
+    if (!(total > 0) || !std::isfinite(total)) return out;
+    const double s = 2 * std::numbers::pi / total;
+    std::vector<Complex> zeta(n);
+    double scale = 0;
+    for (Index i = 0; i < n; ++i) {
+        zeta[i] = std::polar(std::pow(radius[i], s), s * angle[i]);
+        scale = std::max(scale, std::abs(zeta[i]));
+    }
+    if (!(scale > 0) || !std::isfinite(scale)) return out;
+    // Least squares over the vertex (F = 0, zeta = 0) and its neighbours, zeta scaled to <= 1.
+    Eigen::MatrixXcd fit(n + 1, degree + 1);
+    Eigen::VectorXcd rhs(n + 1);
+    fit.row(0).setZero();
+    fit(0, 0) = 1;
+    rhs(0) = 0;
+    double image_size = 0;
+    for (Index i = 0; i < n; ++i) {
+        Complex power = 1;
+        for (int m = 0; m <= degree; ++m, power *= zeta[i] / scale) fit(i + 1, m) = power;
+        rhs(i + 1) = form_along(mesh, tau, star[i]);
+        image_size = std::max(image_size, std::abs(rhs(i + 1)));
+    }
+    const Eigen::VectorXcd c = fit.colPivHouseholderQr().solve(rhs);
+    if (!c.allFinite() || !(std::abs(c(degree)) > 1e-9 * image_size)) return out;
+    // The critical points of the fit are the roots of F'; their mean, from Vieta.
+    const Complex critical = -static_cast<double>(degree - 1) * c(degree - 1) /
+                             (static_cast<double>(degree) * c(degree) * static_cast<double>(order));
+    // Back to the star: radius |zeta|^(1/s), angle arg(zeta) / s in [0, total).
+    const Complex unscaled = critical * scale;
+    double phi = std::arg(unscaled);
+    if (phi < 0) phi += 2 * std::numbers::pi;
+    phi /= s;
+    Index i = 0;
+    while (i + 1 < n && angle[i + 1] <= phi) ++i;
+    // Face of h_i laid flat (vertex at 0, head(h_i) on the real axis) with its corners' images;
+    // a point beyond the star is reached by unfolding the faces across the edges it lies behind.
+    Index f = MeshView::face(star[i]);
+    std::array<Complex, 3> pos, image;
+    {
+        const int k = static_cast<int>(star[i] % 3);
+        pos[k] = 0;
+        pos[(k + 1) % 3] = radius[i];
+        pos[(k + 2) % 3] = std::polar(radius[(i + 1) % n], angle[i + 1] - angle[i]);
+        image[k] = 0;
+        image[(k + 1) % 3] = form_along(mesh, tau, star[i]);
+        image[(k + 2) % 3] = -form_along(mesh, tau, MeshView::prev(star[i]));
+    }
+    const Complex point = std::polar(std::pow(std::abs(unscaled), 1 / s), phi - angle[i]);
+    constexpr int kMaxUnfoldedFaces = 6;
+    for (int step = 0;; ++step) {
+        const double area = cross(pos[1] - pos[0], pos[2] - pos[0]);
+        if (!(area > 0)) return out;
+        std::array<double, 3> bary;
+        for (int k = 0; k < 3; ++k) bary[k] = cross(pos[(k + 1) % 3] - point, pos[(k + 2) % 3] - point) / area;
+        const int worst = static_cast<int>(std::min_element(bary.begin(), bary.end()) - bary.begin());
+        if (bary[worst] >= 0) {
+            out.face = f;
+            out.barycentric = bary;
+            break;
+        }
+        // Across the edge opposite the most negative corner.
+        const Index t = mesh.twin[3 * f + (worst + 1) % 3];
+        if (t == kNoHalfedge || step == kMaxUnfoldedFaces) return out;
+        const int kt = static_cast<int>(t % 3);
+        const Complex a = pos[(worst + 2) % 3], b = pos[(worst + 1) % 3];  // tail and head of t
+        const Complex image_a = image[(worst + 2) % 3], image_b = image[(worst + 1) % 3];
+        f = MeshView::face(t);
+        const Index w = mesh.F(f, (kt + 2) % 3);
+        const double la = (mesh.V.row(w) - mesh.V.row(mesh.tail(t))).norm();
+        const double lb = (mesh.V.row(w) - mesh.V.row(mesh.head(t))).norm();
+        const double d = std::abs(b - a);
+        if (!(d > 0)) return out;
+        const double x = (la * la - lb * lb + d * d) / (2 * d);
+        pos[kt] = a;
+        pos[(kt + 1) % 3] = b;
+        pos[(kt + 2) % 3] = a + (b - a) / d * Complex(x, std::sqrt(std::max(la * la - x * x, 0.0)));
+        image[kt] = image_a;
+        image[(kt + 1) % 3] = image_b;
+        image[(kt + 2) % 3] = image_a - form_along(mesh, tau, MeshView::prev(t));
+    }
+    Complex value = 0, power = 1;
+    for (int m = 0; m <= degree; ++m, power *= critical) value += c(m) * power;
+    out.image_offset = value - image[0];
+    return out;
 }
 
 }  // namespace holoflow::kernels

@@ -166,6 +166,13 @@ TEST(Cli, SegmentWritesItsFilesAndJson) {
     EXPECT_EQ(report["working_genus"], 2);
     EXPECT_EQ(report["zero_count"], 2);
     EXPECT_EQ(report["flipped_uv_triangles"], 0);
+    for (const auto& zero : report["zeros"]) {  // both of eight's zeros are refined into a face
+        EXPECT_EQ(zero["order"], 1);
+        EXPECT_GE(zero["vertex"].get<int>(), 0);
+        EXPECT_GE(zero["face"].get<int>(), 0);
+        EXPECT_EQ(zero["barycentric"].size(), 3u);
+        EXPECT_EQ(zero["position"].size(), 3u);
+    }
     for (const char* file : {"segments.ply", "patches.obj", "trajectories.obj", "domains.svg", "complex.json",
                              "segmentation.json"})
         EXPECT_GT(std::filesystem::file_size(std::filesystem::path(out) / file), 0u) << file;

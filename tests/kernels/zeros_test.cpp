@@ -8,6 +8,7 @@
 
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/kernels/shapes.h"
+#include "support/plane_zeros.h"
 #include "support/test_support.h"
 
 namespace holoflow::kernels {
@@ -122,6 +123,77 @@ TEST(Zeros, TiesKeepTheCountExact) {
         int clusters = 0;
         for (const ZeroCluster& c : z.clusters) clusters += c.index;
         EXPECT_EQ(clusters, 2 * genus - 2);
+    }
+}
+
+// On a flat mesh with F = (z - z0)^(k+1) the fit is exact: the refined point is z0, in the face
+// holding it, with F(z0) as its image.
+TEST(Zeros, RefinementFindsAPlantedZeroInsideAFace) {
+    const MeshView m = test::turned_grid(14);
+    for (const int order : {1, 2, 3})
+        for (const std::complex<double> z0 : {std::complex<double>(0.071, 0.113), {-0.42, 0.3137}, {0.2501, -0.6}}) {
+            SCOPED_TRACE(testing::Message() << "order " << order << " at " << z0);
+            const auto f = [&](std::complex<double> z) { return std::pow(z - z0, order + 1); };
+            std::vector<std::complex<double>> values(m.n_vertices());
+            for (Index v = 0; v < m.n_vertices(); ++v) values[v] = f(test::point(m, v));
+            const Eigen::VectorXcd tau = test::form_of(m, values);
+            std::array<double, 3> bary{};
+            const Index face = test::face_containing(m, z0, bary);
+            ASSERT_GE(face, 0);
+            const int corner = static_cast<int>(std::max_element(bary.begin(), bary.end()) - bary.begin());
+            const ZeroPoint p = refine_zero(m, tau, m.F(face, corner), order);
+            ASSERT_EQ(p.face, face);
+            for (int k = 0; k < 3; ++k) EXPECT_NEAR(p.barycentric[k], bary[k], 1e-9);
+            EXPECT_LT(std::abs(p.image_offset - (f(z0) - values[m.F(face, 0)])), 1e-9);
+        }
+}
+
+// Where the fit cannot place the zero, it stays at its vertex: a boundary vertex, a zero far
+// outside the star, or a form with no critical point there.
+TEST(Zeros, RefinementLeavesUnplaceableZerosAtTheirVertex) {
+    const MeshView m = test::turned_grid(14);
+    std::vector<std::complex<double>> far(m.n_vertices()), linear(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) {
+        const std::complex<double> z = test::point(m, v);
+        far[v] = (z - std::complex<double>(1.0, 1.0)) * (z - std::complex<double>(1.0, 1.0));
+        linear[v] = std::complex<double>(2, 1) * z;
+    }
+    std::array<double, 3> bary{};
+    const Index centre = m.F(test::face_containing(m, {0.01, 0.02}, bary), 0);
+    EXPECT_EQ(refine_zero(m, test::form_of(m, far), centre, 1).face, -1);
+    EXPECT_EQ(refine_zero(m, test::form_of(m, linear), centre, 1).face, -1);
+    EXPECT_EQ(refine_zero(m, test::form_of(m, far), 0, 1).face, -1);  // a corner of the grid
+    EXPECT_THROW(refine_zero(m, test::form_of(m, far), m.n_vertices(), 1), InvalidInput);
+}
+
+// On real meshes the zeros are refined into faces next to their saddle vertex.
+TEST(Zeros, RefinedPointsLieAroundTheirSaddleOnRealMeshes) {
+    for (const char* name : {"eight", "femur", "elephant", "helmet"}) {
+        SCOPED_TRACE(name);
+        const auto mesh = test::corpus_mesh(name);
+        const engine::ConformalResult c = engine::compute_conformal(*mesh);
+        const ZeroSet z = find_zeros(*c.surface, c.tau);
+        Index refined = 0;
+        for (const Zero& zero : z.zeros) {
+            if (zero.point.face < 0) continue;
+            ++refined;
+            // In the saddle's two-ring: a corner of the face is the saddle or one of its neighbours.
+            bool near = false;
+            for (int k = 0; k < 3; ++k)
+                for (Index h = 0; h < c.surface->n_halfedges(); ++h)
+                    near = near || (c.surface->tail(h) == zero.vertex &&
+                                    (c.surface->head(h) == c.surface->F(zero.point.face, k) ||
+                                     zero.vertex == c.surface->F(zero.point.face, k)));
+            EXPECT_TRUE(near);
+            double sum = 0;
+            for (double b : zero.point.barycentric) {
+                EXPECT_GE(b, 0);
+                sum += b;
+            }
+            EXPECT_NEAR(sum, 1, 1e-12);
+        }
+        std::printf("%s: %lld of %zu zeros refined into a face\n", name, static_cast<long long>(refined), z.zeros.size());
+        EXPECT_EQ(refined, static_cast<Index>(z.zeros.size()));
     }
 }
 

@@ -34,11 +34,19 @@ struct ZeroCluster {
     std::vector<Index> flipped_faces; //!< ascending
 };
 
-//! A zero point of the form: at a vertex, or inside a face.
+//! A zero's position refined inside the star of its saddle vertex (refine_zero).
+struct ZeroPoint {
+    Index face = -1;  //!< -1: not refined, the zero stays at its vertex
+    std::array<double, 3> barycentric{};  //!< weights of the face's corners 0, 1, 2
+    std::complex<double> image_offset{};  //!< image of the point minus image of corner 0
+};
+
+//! A zero point of the form: at a saddle vertex, and refined to a point of a face around it.
 struct Zero {
     int order = 0;
     Index cluster = -1;  //!< in ZeroSet::clusters
     Index vertex = -1;   //!< the saddle vertex it sits at
+    ZeroPoint point;     //!< where the form vanishes near it, when the fit places it
 };
 
 struct ZeroSet {
@@ -90,5 +98,16 @@ struct ZeroOptions {
 //! \pre closed mesh, tau has #E finite values.  \throw InvalidInput.
 ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options);
 ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau);
+
+//! \brief Refines a zero of order `order` at an interior `vertex` to a point of its star: the
+//! integral F of tau over the one-ring, in the cone's conformal chart zeta = (r e^{i phi})^s
+//! (phi the angle around the vertex, s = 2 pi / total angle), is fitted by least squares with a
+//! complex polynomial of degree order + 1 (exact for F = a (zeta - zeta0)^(order+1) + c); the
+//! zero is the mean of the fit's critical points (the saddle found by counting can be a vertex
+//! next to the true zero, so a point just beyond the star is reached by unfolding the faces on
+//! the way). Returns face -1 when the vertex is on the boundary, has fewer than order + 2
+//! neighbours, the fit is degenerate or the point lies more than 6 faces beyond the star. Pure
+//! and cheap (one small dense fit).
+ZeroPoint refine_zero(const MeshView& mesh, const Eigen::VectorXcd& tau, Index vertex, int order);
 
 }  // namespace holoflow::kernels
