@@ -255,12 +255,9 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         nlohmann::json j = {{"order", zero.order}, {"cluster", zero.cluster}};
         j["vertex"] = zero.vertex;
         if (zero.point.face >= 0) {
-            const MeshView& surface = *r.conformal.surface;
-            Eigen::RowVector3d position = Eigen::RowVector3d::Zero();
-            for (int k = 0; k < 3; ++k) position += zero.point.barycentric[k] * surface.V.row(surface.F(zero.point.face, k));
             j["face"] = zero.point.face;
             j["barycentric"] = zero.point.barycentric;
-            j["position"] = {position(0), position(1), position(2)};
+            j["position"] = zero.point.position;
         }
         zeros.push_back(j);
     }

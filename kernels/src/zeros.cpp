@@ -360,6 +360,8 @@ ZeroPoint refine_zero(const MeshView& mesh, const Eigen::VectorXcd& tau, Index v
         if (bary[worst] >= 0) {
             out.face = f;
             out.barycentric = bary;
+            for (int k = 0; k < 3; ++k)
+                for (int axis = 0; axis < 3; ++axis) out.position[axis] += bary[k] * mesh.V(mesh.F(f, k), axis);
             break;
         }
         // Across the edge opposite the most negative corner.

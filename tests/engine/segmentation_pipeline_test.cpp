@@ -63,15 +63,9 @@ std::vector<Eigen::RowVector3d> zero_positions(const SegmentationResult& r) {
 std::vector<Eigen::RowVector3d> refined_zero_positions(const SegmentationResult& r) {
     const MeshView& s = *r.conformal.surface;
     std::vector<Eigen::RowVector3d> out;
-    for (const kernels::Zero& z : r.zeros.zeros) {
-        if (z.point.face < 0) {
-            out.push_back(s.V.row(z.vertex));
-            continue;
-        }
-        Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-        for (int k = 0; k < 3; ++k) p += z.point.barycentric[k] * s.V.row(s.F(z.point.face, k));
-        out.push_back(p);
-    }
+    for (const kernels::Zero& z : r.zeros.zeros)
+        out.push_back(z.point.face < 0 ? Eigen::RowVector3d(s.V.row(z.vertex))
+                                       : Eigen::RowVector3d(z.point.position[0], z.point.position[1], z.point.position[2]));
     return out;
 }
 

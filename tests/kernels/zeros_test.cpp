@@ -191,6 +191,12 @@ TEST(Zeros, RefinedPointsLieAroundTheirSaddleOnRealMeshes) {
                 sum += b;
             }
             EXPECT_NEAR(sum, 1, 1e-12);
+            for (int axis = 0; axis < 3; ++axis) {
+                double expected = 0;
+                for (int k = 0; k < 3; ++k)
+                    expected += zero.point.barycentric[k] * c.surface->V(c.surface->F(zero.point.face, k), axis);
+                EXPECT_NEAR(zero.point.position[axis], expected, 1e-12 * (1 + std::abs(expected)));
+            }
         }
         std::printf("%s: %lld of %zu zeros refined into a face\n", name, static_cast<long long>(refined), z.zeros.size());
         EXPECT_EQ(refined, static_cast<Index>(z.zeros.size()));

@@ -39,6 +39,7 @@ struct ZeroPoint {
     Index face = -1;  //!< -1: not refined, the zero stays at its vertex
     std::array<double, 3> barycentric{};  //!< weights of the face's corners 0, 1, 2
     std::complex<double> image_offset{};  //!< image of the point minus image of corner 0
+    std::array<double, 3> position{};     //!< the point in space
 };
 
 //! A zero point of the form: at a saddle vertex, and refined to a point of a face around it.
