@@ -19,13 +19,16 @@ namespace {
 //! One BLAS thread: callers parallelise over meshes and right-hand sides, and a single thread
 //! keeps every BLAS reduction in a fixed order (same bits on any machine load). CHOLMOD's own
 //! OpenMP loops (up to 4 threads per factorization, compiled in) would stack threads on busy
-//! oneTBB workers: no active OpenMP level makes every parallel region run on its caller.
+//! oneTBB workers: no active OpenMP level makes every parallel region run on its caller. libgomp
+//! keeps that setting per thread, so each thread that calls CHOLMOD sets it once.
 void pin_blas_threads() {
     static std::once_flag once;
-    std::call_once(once, [] {
-        openblas_set_num_threads(1);
+    std::call_once(once, [] { openblas_set_num_threads(1); });
+    thread_local const bool no_openmp_teams = [] {
         omp_set_max_active_levels(0);
-    });
+        return true;
+    }();
+    (void)no_openmp_teams;
 }
 
 //! A configured cholmod_common. Not thread-safe, so each call builds its own: start/finish only

@@ -15,6 +15,8 @@
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/shapes.h"
 
+extern "C" int omp_get_max_active_levels();  // libgomp, which CHOLMOD runs its loops on
+
 namespace holoflow::kernels {
 namespace {
 
@@ -204,6 +206,22 @@ TEST(Cholesky, ConcurrentFactorizationsShareOneAnalysis) {
     for (std::thread& t : threads) t.join();
     for (int t = 0; t < kThreads; ++t)
         EXPECT_EQ(X[t], CholeskyFactor::factorize(symbolic, L[t])->solve(B)) << "thread " << t;
+}
+
+// CHOLMOD's OpenMP loops must run on their caller on every thread that factorizes: libgomp keeps
+// the active-level limit per thread, so a limit set once on the first caller would let a team of
+// up to 4 threads start on every other oneTBB worker.
+TEST(Cholesky, NoOpenMPTeamsOnAnyCallingThread) {
+    const LaplacianMatrix L = pinned_laplacian(shapes::icosphere(2));
+    const auto symbolic = CholeskySymbolic::analyse(L);
+    int levels_on_other_thread = -1;
+    std::thread other([&] {
+        CholeskyFactor::factorize(symbolic, L);
+        levels_on_other_thread = omp_get_max_active_levels();
+    });
+    other.join();
+    EXPECT_EQ(levels_on_other_thread, 0);
+    EXPECT_EQ(omp_get_max_active_levels(), 0);  // the thread that analysed
 }
 
 }  // namespace
