@@ -687,7 +687,8 @@ class Builder {
             }
         }
         std::stable_sort(rest.begin(), rest.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-        for (const auto& [d, c] : rest) {
+        for (const auto& entry : rest) {
+            const Candidate& c = entry.second;
             const bool seen = c.vertex >= 0 && std::any_of(candidates.begin(), candidates.end(),
                                                            [&](const Candidate& x) { return x.vertex == c.vertex; });
             if (!seen) candidates.push_back(c);

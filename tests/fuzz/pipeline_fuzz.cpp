@@ -1,12 +1,16 @@
-// libFuzzer target: a small OFF mesh -> load -> topology -> compute_conformal when the mesh has a
-// holomorphic 1-form (closed genus >= 1, or open and not a disk). Only the documented exceptions
-// (MeshError, InvalidInput, SolverFailure) are caught; a success must carry finite results.
+// libFuzzer target: a small OFF mesh -> load -> topology -> the whole segmentation (conformal
+// stage, zeros, fans, tracing, cutting, patches, reports) when the mesh has a holomorphic 1-form
+// after tip slicing or doubling (any connected mesh but a sphere or disk too small to slice
+// still tries). Only the documented exceptions (MeshError, InvalidInput, SolverFailure) are caught;
+// a success must carry finite results and the exact zero count.
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
 #include "fuzz_common.h"
 #include "holoflow/engine/conformal_pipeline.h"
+#include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/errors.h"
 
 namespace {
@@ -36,21 +40,24 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const kernels::Topology t = kernels::compute_topology(mesh);
     fuzz::check_topology(mesh, t);
 
-    const bool closed = t.boundary_loops == 0;
-    const bool disk = t.components == 1 && t.genus == 0 && t.boundary_loops == 1;
-    if ((closed && t.genus < 1) || disk) return 0;
-
-    engine::ConformalOptions options;
-    // The last byte picks the Laplacian, so that both variants are explored.
-    if (data[size - 1] & 1) options.laplacian = engine::LaplacianKind::Extrinsic;
+    engine::SegmentOptions options;
+    // The last byte picks the Laplacian and the mode, so that every variant is explored.
+    if (data[size - 1] & 1) options.conformal.laplacian = engine::LaplacianKind::Extrinsic;
+    if (data[size - 1] & 2) options.mode = engine::SegmentMode::Vertical;
     try {
-        const engine::ConformalResult r = engine::compute_conformal(mesh, options);
-        HOLOFLOW_FUZZ_CHECK(r.surface && r.harmonic.allFinite() && r.tau.allFinite());
-        HOLOFLOW_FUZZ_CHECK(r.basis.period_matrix.allFinite());
-        HOLOFLOW_FUZZ_CHECK(static_cast<Index>(r.map.corner_wedge.size()) ==
-                            r.surface->n_halfedges());
-        HOLOFLOW_FUZZ_CHECK(r.harmonic.rows() == r.surface->n_edges());
-        (void)engine::conformal_report(r).dump();
+        const engine::SegmentationResult r = engine::segment(mesh, options);
+        const engine::ConformalResult& c = r.conformal;
+        HOLOFLOW_FUZZ_CHECK(c.surface && c.tau.allFinite() && c.basis.period_matrix.allFinite());
+        HOLOFLOW_FUZZ_CHECK(static_cast<Index>(c.map.conformal_factor.size()) == c.surface->n_vertices());
+        for (const auto& uv : c.map.wedge_uv) HOLOFLOW_FUZZ_CHECK(std::isfinite(uv.real()) && std::isfinite(uv.imag()));
+        // sum (w_v - 1) + flips = 2g - 2 and sum m_v = 2g - 2 hold by construction on the closed
+        // working surface.
+        const int genus = c.basis.genus;
+        if (genus >= 2) HOLOFLOW_FUZZ_CHECK(r.zeros.total_index == 2 * genus - 2);
+        HOLOFLOW_FUZZ_CHECK(static_cast<Index>(r.patches.face_patch.size()) == r.cut.mesh.n_faces());
+        for (const auto& uv : r.patches.corner_uv) HOLOFLOW_FUZZ_CHECK(std::isfinite(uv.real()) && std::isfinite(uv.imag()));
+        (void)engine::segmentation_report(r).dump();
+        (void)engine::complex_report(r).dump();
     } catch (const InvalidInput&) {  // also MeshError
     } catch (const SolverFailure&) {
     }
