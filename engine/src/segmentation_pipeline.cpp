@@ -2,10 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include "holoflow/engine/output.h"
-#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/tips.h"
@@ -155,22 +153,8 @@ void fans(SegmentationWork& work) {
                                      : r.conformal.tau;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;
     if (r.is_torus()) {
-        // No zeros, and the torus opens along its homology cut graph, whose edges must stay:
-        // the mesh as it is (no edge flips), any folds of its image left and counted.
-        kernels::RegularisedForm& same = r.regular;
-        same.mesh = traced;
-        same.tau = tau;
-        same.original_vertex.resize(traced.n_vertices());
-        std::iota(same.original_vertex.begin(), same.original_vertex.end(), Index{0});
-        same.original_face.resize(traced.n_faces());
-        std::iota(same.original_face.begin(), same.original_face.end(), Index{0});
-        for (Index f = 0; f < traced.n_faces(); ++f) {
-            double angle_sum = 0;
-            for (Index h = 3 * f; h < 3 * f + 3; ++h)
-                angle_sum += kernels::corner_angle(kernels::form_along(traced, tau, h),
-                                                   -kernels::form_along(traced, tau, MeshView::prev(h)));
-            same.flipped_faces += kernels::image_flips(angle_sum) != 0;
-        }
+        // No zeros, and the torus opens along its homology cut graph, whose edges must stay.
+        r.regular = kernels::unregularised(traced, tau);
         clock.lap("zero_fans");
         return;
     }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <numeric>
 
 #include <Eigen/Geometry>
 
@@ -29,6 +30,14 @@ constexpr Index kCentre = -1;              // point id of the centre in a triang
 // Image angle at the tail of halfedge h, between h and the reverse of the previous halfedge.
 double tail_angle(const std::vector<Complex>& along, Index h) {
     return corner_angle(along[h], -along[MeshView::prev(h)]);
+}
+
+// Flipped image triangles of a mesh whose halfedge images are `along`.
+Index count_flipped_images(const std::vector<Complex>& along) {
+    Index flipped = 0;
+    for (Index h = 0; h < static_cast<Index>(along.size()); h += 3)
+        flipped += image_flips(tail_angle(along, h) + tail_angle(along, h + 1) + tail_angle(along, h + 2)) != 0;
+    return flipped;
 }
 
 // The 3D triangle x y z is not degenerate.
@@ -1167,12 +1176,7 @@ RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau,
     out.tau.resize(out.mesh.n_edges());
     for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along_new[out.mesh.edge_halfedge[e]];
 
-    // What is left: flipped image triangles anywhere (failed regions, or none).
-    for (Index f = 0; f < out.mesh.n_faces(); ++f) {
-        double sum = 0;
-        for (int k = 0; k < 3; ++k) sum += tail_angle(along_new, 3 * f + k);
-        out.flipped_faces += image_flips(sum) != 0;
-    }
+    out.flipped_faces = count_flipped_images(along_new);  // what is left: failed regions, or none
     return out;
 }
 
@@ -1198,6 +1202,21 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     for (Index& f : out.original_face)
         if (f >= 0) f = flipped.original_face[f];
     out.edge_flips = flipped.flips;
+    return out;
+}
+
+RegularisedForm unregularised(const MeshView& mesh, const Eigen::VectorXcd& tau) {
+    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
+    RegularisedForm out;
+    out.mesh = mesh;
+    out.tau = tau;
+    out.original_vertex.resize(mesh.n_vertices());
+    std::iota(out.original_vertex.begin(), out.original_vertex.end(), Index{0});
+    out.original_face.resize(mesh.n_faces());
+    std::iota(out.original_face.begin(), out.original_face.end(), Index{0});
+    std::vector<Complex> along(mesh.n_halfedges());
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
+    out.flipped_faces = count_flipped_images(along);
     return out;
 }
 

@@ -124,6 +124,25 @@ TEST(ZeroFans, FoldWithoutAZeroIsReTriangulated) {
     for (int w : c.winding) EXPECT_LE(w, 1);
 }
 
+// A surface that must keep its edges (a torus's homology cut) is passed through as it is: the
+// same mesh and form, identity maps, its folds counted and left.
+TEST(ZeroFans, UnregularisedKeepsTheMeshAndCountsItsFolds) {
+    const MeshView m = shapes::flat_grid(10, 10);
+    std::vector<Complex> image(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) image[v] = point(m, v);
+    image[5 * 11 + 5] += Complex(0.17, 0.11);  // the fold of FoldWithoutAZeroIsReTriangulated
+    const Eigen::VectorXcd tau = form_of(m, image);
+    const RegularisedForm r = unregularised(m, tau);
+    EXPECT_EQ(r.mesh.F, m.F);
+    EXPECT_EQ(r.tau, tau);
+    for (Index v = 0; v < m.n_vertices(); ++v) EXPECT_EQ(r.original_vertex[v], v);
+    for (Index f = 0; f < m.n_faces(); ++f) EXPECT_EQ(r.original_face[f], f);
+    EXPECT_GT(r.flipped_faces, 1);
+    EXPECT_EQ(r.flipped_faces, check_image(m, tau).flipped);
+    EXPECT_EQ(r.edge_flips, 0);
+    EXPECT_THROW(unregularised(m, Eigen::VectorXcd(3)), InvalidInput);
+}
+
 // f = z^3 at a vertex: an order-2 zero, its one-ring already a fan winding three times.
 TEST(ZeroFans, ZeroAtAVertexKeepsTheVertex) {
     const MeshView m = shapes::flat_grid(10, 10);

@@ -41,13 +41,14 @@ struct ModelRun {
 using ModelCallback = std::function<void(ModelRun&)>;
 
 //! \brief The segmentation as a oneTBB flow graph, one node per stage:
-//! read -> validate -> prepare (topology, tip slicing, double cover) -> homology (cut graph and
-//! closed forms) -> laplacian -> factorise -> split_solves -> solve (the 2g harmonic solves in
-//! blocks, concurrently) -> end_solves -> hodge_star -> integrate -> zeros -> fans -> trace ->
-//! cut (and patches) -> write -> collect. A collection streams through it: model ids wait in a
-//! queue and a limiter admits max_in_flight of them at once, every message carries its model's
-//! id, and the collector stores results by id, so order of arrival decides nothing. A failing model (bad file, solver
-//! failure, time limit) becomes a failed ModelRun; the others go on.
+//! read -> validate -> prepare (topology, tip slicing, double cover) -> laplacian ->
+//! homology_and_factorise (cut graph and closed forms beside the factorisation) -> split_solves
+//! -> solve (the 2g harmonic solves in blocks, concurrently) -> end_solves -> hodge_star ->
+//! integrate -> zeros -> fans -> trace -> cut (and patches) -> write -> collect. A collection
+//! streams through it: model ids wait in a queue and a limiter admits max_in_flight of them at
+//! once, every message carries its model's id, and the collector stores results by id, so order
+//! of arrival decides nothing. A failing model (bad file, solver failure, time limit) becomes a
+//! failed ModelRun; the others go on.
 //! run_serial is the twin: the same stage functions in plain loops, same bits.
 class SegmentationGraph {
   public:
