@@ -32,10 +32,10 @@ double tail_angle(const std::vector<Complex>& along, Index h) {
     return corner_angle(along[h], -along[MeshView::prev(h)]);
 }
 
-// Flipped image triangles of a mesh whose halfedge images are `along`.
-Index count_flipped_images(const std::vector<Complex>& along) {
+// Flipped image triangles of a mesh whose halfedge images are `along` (faces from first_face on).
+Index count_flipped_images(const std::vector<Complex>& along, Index first_face = 0) {
     Index flipped = 0;
-    for (Index h = 0; h < static_cast<Index>(along.size()); h += 3)
+    for (Index h = 3 * first_face; h < static_cast<Index>(along.size()); h += 3)
         flipped += image_flips(tail_angle(along, h) + tail_angle(along, h + 1) + tail_angle(along, h + 2)) != 0;
     return flipped;
 }
@@ -128,6 +128,17 @@ struct Retriangulation {
     Complex centre_image;
     std::vector<Complex> point_image;  // chain tails, then (open) the last head
     std::vector<std::array<Index, 3>> triangles;  // point ids, kCentre for the centre
+
+    Complex image(Index p) const { return p == kCentre ? centre_image : point_image[p]; }
+    // Input vertex of chain point p (not the centre).
+    Index vertex(const MeshView& mesh, Index p) const {
+        const Index n = static_cast<Index>(chain.size());
+        return open && p == n ? mesh.head(chain.back()) : mesh.tail(chain[p % n]);
+    }
+    // Points a then b along the chain: chain halfedge a.
+    bool chain_edge(Index a, Index b) const {
+        return a != kCentre && b != kCentre && b == (open ? a + 1 : (a + 1) % static_cast<Index>(point_image.size()));
+    }
 };
 
 struct Group {
@@ -156,7 +167,7 @@ class Builder {
         : mesh_(mesh), regions_(regions), vf_(mesh), along_(mesh.n_halfedges()), angle_(mesh.n_halfedges()),
           flip_(mesh.n_faces(), 0), winding_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
           owner_(mesh.n_faces(), -1), mark_(mesh.n_faces(), 0), stamp_(mesh.n_vertices(), -1),
-          chain_stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), origin_(mesh.n_faces()),
+          chain_stamp_(mesh.n_vertices(), -1), candidate_stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), origin_(mesh.n_faces()),
           cut_(mesh.n_halfedges(), 0) {
         for (Index h = 0; h < mesh.n_halfedges(); ++h) {
             along_[h] = form_along(mesh, tau, h);
@@ -193,19 +204,21 @@ class Builder {
                 const bool zeros_pass = pass == 0 || pass == 2;
                 if ((groups[r].order > 0) != zeros_pass || groups[r].absorbed_into >= 0 || groups[r].accepted)
                     continue;
-                // A region that fails leaves the others as they were (it may have taken some in).
-                std::vector<Group> saved_groups = groups;
-                std::vector<Index> saved_owner = owner_;
-                if (!solve(groups, static_cast<Index>(r), pass == 2)) {
-                    groups.swap(saved_groups);
-                    owner_.swap(saved_owner);
-                }
+                // A region that fails leaves the others as they were (it may have taken some in):
+                // it and the groups it absorbed get their state and faces back.
+                undo_.assign(1, {static_cast<Index>(r), groups[r]});
+                if (!solve(groups, static_cast<Index>(r), pass == 2))
+                    for (auto& [o, saved] : undo_) {
+                        groups[o] = std::move(saved);
+                        for (Index f : groups[o].result.faces) owner_[f] = o;
+                    }
             }
         }
         return groups;
     }
 
     const std::vector<Complex>& along() const { return along_; }
+    const std::vector<int>& flips() const { return flip_; }
 
  private:
     // Flips no region took in (and windings != 1 inside no region) become folds of their own.
@@ -279,7 +292,6 @@ class Builder {
         group.result = Retriangulation{};
         group.result.kept = true;
         group.result.faces = faces;
-        group.result.has_centre = region.vertex >= 0;
         group.result.centre = region.vertex >= 0 ? region.vertex : vertices.front();
         for (Index f : faces) owner_[f] = g;
         return true;
@@ -330,6 +342,7 @@ class Builder {
     // Group o joins group g: its regions and order, and its faces (freed) are added to `faces`.
     void absorb(std::vector<Group>& groups, Index g, Index o, std::vector<Index>& faces) {
         Group& other = groups[o];
+        undo_.emplace_back(o, other);
         other.accepted = false;
         other.absorbed_into = g;
         groups[g].order += other.order;
@@ -495,7 +508,7 @@ class Builder {
                 queue.push_back(g);
             }
         }
-        for (Index f : out.faces) mark_[f] = mark_[f] ? 1 : 0;
+        for (Index f : out.faces) mark_[f] = 1;
         if (queue.size() != out.faces.size()) return false;
         std::vector<Index> border;
         Index interior_halfedges = 0, cuts = 0;
@@ -610,7 +623,6 @@ class Builder {
             if (polygon_is_simple(out.point_image) && ear_clip(ids, out.point_image, out.triangles) &&
                 triangles_are_valid(out, diagnosis))
                 return true;
-            out.triangles.clear();
         }
         const std::vector<Candidate> candidates = centre_candidates(group, out);
         int searches = 0;  // sector searches are the costly part: a few centres only
@@ -618,14 +630,11 @@ class Builder {
             out.triangles.clear();
             if (!triangulate_around(candidates[c], group.order, out, c == 0 ? &diagnosis : nullptr, searches))
                 continue;
-            out.has_centre = true;
             out.centre = candidates[c].vertex;
             out.centre_image = candidates[c].image;
             out.centre_position = candidates[c].position;
-            if (triangles_are_valid(out, diagnosis)) return true;
-            out.has_centre = false;
+            if (triangles_are_valid(out, diagnosis)) return out.has_centre = true;
         }
-        out.triangles.clear();
         return false;
     }
 
@@ -696,12 +705,15 @@ class Builder {
             }
         }
         std::stable_sort(rest.begin(), rest.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-        for (const auto& entry : rest) {
-            const Candidate& c = entry.second;
-            const bool seen = c.vertex >= 0 && std::any_of(candidates.begin(), candidates.end(),
-                                                           [&](const Candidate& x) { return x.vertex == c.vertex; });
-            if (!seen) candidates.push_back(c);
-        }
+        // Each vertex once (its first entry): a stamp, not a scan of the list.
+        const auto fresh = [&](const Candidate& c) {
+            if (c.vertex < 0) return true;
+            if (candidate_stamp_[c.vertex] == generation_) return false;
+            return (candidate_stamp_[c.vertex] = generation_), true;
+        };
+        for (const Candidate& c : candidates) fresh(c);
+        for (const auto& entry : rest)
+            if (fresh(entry.second)) candidates.push_back(entry.second);
         return candidates;
     }
 
@@ -716,11 +728,11 @@ class Builder {
         const Index n = static_cast<Index>(out.chain.size());  // arc edges; point i + 1 follows i
         // Most candidates fail: cheap tests first (no hypot, no atan2 until a fan or a sector
         // search can still follow).
+        if (c.vertex >= 0 && is_chain(c.vertex)) return false;
         double extent2 = 0;
         for (const Complex& p : pts) extent2 = std::max(extent2, std::norm(p - c.image));
         if (!(extent2 > 0)) return false;
         const double tol = kTouchTol * std::sqrt(extent2);
-        if (c.vertex >= 0 && is_chain(c.vertex)) return false;
         for (const Complex& p : pts)
             if (std::norm(p - c.image) <= tol * tol) return false;
         const auto point = [&](Index i) { return pts[out.open ? i : i % np]; };
@@ -742,8 +754,8 @@ class Builder {
         if (diagnosis)
             for (Index i = 0; i < n; ++i)
                 if (!ccw(c.image, point(i), point(i + 1))) {
-                    diagnosis->bad_vertices.push_back(vertex_of(out, i));
-                    diagnosis->bad_vertices.push_back(vertex_of(out, i + 1));
+                    diagnosis->bad_vertices.push_back(out.vertex(mesh_, i));
+                    diagnosis->bad_vertices.push_back(out.vertex(mesh_, i + 1));
                 }
 
         if (n > kMaxSectorChain || ++searches > search_cap) return false;
@@ -842,18 +854,12 @@ class Builder {
         return k <= n ? theta[k] - theta[s] : theta[n] + theta[k - n] - theta[s];
     }
 
-    Index vertex_of(const Retriangulation& out, Index point) const {
-        const Index n = static_cast<Index>(out.chain.size());
-        if (out.open && point == n) return mesh_.head(out.chain.back());
-        return mesh_.tail(out.chain[point % n]);
-    }
-
     // New triangles: counter-clockwise images, non-degenerate in 3D, and every chain point
     // still winding once (its outside angles plus its new inside angles make 2 pi).
     bool triangles_are_valid(const Retriangulation& out, Diagnosis& diagnosis) const {
-        const auto image = [&](Index p) { return p == kCentre ? out.centre_image : out.point_image[p]; };
+        const auto image = [&](Index p) { return out.image(p); };
         const auto position = [&](Index p) -> Eigen::RowVector3d {
-            return p == kCentre ? out.centre_position : Eigen::RowVector3d(mesh_.V.row(vertex_of(out, p)));
+            return p == kCentre ? out.centre_position : Eigen::RowVector3d(mesh_.V.row(out.vertex(mesh_, p)));
         };
         std::vector<std::pair<Index, double>> inside;  // per chain point: its vertex, new angles
         for (const auto& t : out.triangles) {
@@ -861,7 +867,7 @@ class Builder {
             if (!solid(position(t[0]), position(t[1]), position(t[2]))) return false;
             for (int k = 0; k < 3; ++k)
                 if (t[k] != kCentre)
-                    inside.emplace_back(vertex_of(out, t[k]), corner_angle(image(t[(k + 1) % 3]) - image(t[k]),
+                    inside.emplace_back(out.vertex(mesh_, t[k]), corner_angle(image(t[(k + 1) % 3]) - image(t[k]),
                                                                           image(t[(k + 2) % 3]) - image(t[k])));
         }
         // No new edge may double an edge outside the region (or another new one): the mesh
@@ -870,9 +876,8 @@ class Builder {
         for (const auto& t : out.triangles)
             for (int k = 0; k < 3; ++k) {
                 const Index a = t[k], b = t[(k + 1) % 3];
-                if (a != kCentre && b != kCentre && (out.open ? b == a + 1 : b == (a + 1) % static_cast<Index>(out.point_image.size())))
-                    continue;  // a chain edge
-                const Index va = a == kCentre ? out.centre : vertex_of(out, a), vb = b == kCentre ? out.centre : vertex_of(out, b);
+                if (out.chain_edge(a, b)) continue;
+                const Index va = a == kCentre ? out.centre : out.vertex(mesh_, a), vb = b == kCentre ? out.centre : out.vertex(mesh_, b);
                 if (va == vb) return false;
                 pairs.emplace_back(std::min(va, vb), std::max(va, vb));  // -1: a new centre
                 if (va < 0 || vb < 0) continue;  // a new centre has no edges outside
@@ -935,10 +940,12 @@ class Builder {
     std::vector<Index> owner_;
     std::vector<char> mark_;
     std::vector<Index> stamp_, chain_stamp_;
+    mutable std::vector<Index> candidate_stamp_;
     std::vector<Complex> image_, origin_;
     std::vector<char> cut_;
     Index generation_ = 0;
     Index face_cap_ = 0;
+    std::vector<std::pair<Index, Group>> undo_;  // groups as they were before the current solve
 };
 
 // Flipped image triangles that one edge flip repairs: where the image of the two faces across
@@ -1027,6 +1034,7 @@ Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std:
             break;
         }
     }
+    if (out.flips == 0) return out;  // the caller keeps the input mesh and form
     out.mesh = make_mesh_view(mesh.V, std::move(F), std::move(twin));
     out.tau.resize(out.mesh.n_edges());
     for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along[out.mesh.edge_halfedge[e]];
@@ -1052,7 +1060,7 @@ RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau,
     for (Index g : accepted) {
         const Retriangulation& r = groups[g].result;
         for (Index h : r.chain) vertex_kept[mesh.tail(h)] = vertex_kept[mesh.head(h)] = 1;
-        if (r.has_centre && r.centre >= 0) vertex_kept[r.centre] = 1;
+        if (r.centre >= 0) vertex_kept[r.centre] = 1;
     }
     std::vector<Index> new_vertex(mesh.n_vertices(), -1);
     for (Index v = 0; v < mesh.n_vertices(); ++v) {
@@ -1097,12 +1105,8 @@ RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau,
     Index next_face = nf;
     for (Index g : accepted) {
         const Retriangulation& r = groups[g].result;
-        const Index n = static_cast<Index>(r.chain.size()), np = static_cast<Index>(r.point_image.size());
-        const auto vertex = [&](Index p) {
-            if (p == kCentre) return centre_vertex[g];
-            return new_vertex[r.open && p == n ? mesh.head(r.chain.back()) : mesh.tail(r.chain[p])];
-        };
-        const auto image = [&](Index p) { return p == kCentre ? r.centre_image : r.point_image[p]; };
+        const auto vertex = [&](Index p) { return p == kCentre ? centre_vertex[g] : new_vertex[r.vertex(mesh, p)]; };
+        const auto image = [&](Index p) { return r.image(p); };
         std::map<std::pair<Index, Index>, Index> open_edges;  // (from, to) point ids -> halfedge
         for (const auto& t : r.triangles) {
             const Index f = next_face++;
@@ -1110,8 +1114,7 @@ RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau,
                 const Index a = t[k], b = t[(k + 1) % 3], h = 3 * f + k;
                 F(f, k) = vertex(a);
                 // Point a then b along the chain is chain halfedge a.
-                const bool chain_edge = a != kCentre && b != kCentre && (r.open ? b == a + 1 : b == (a + 1) % np);
-                if (chain_edge) {
+                if (r.chain_edge(a, b)) {
                     along_new[h] = along[r.chain[a]];
                     chain_owner[r.chain[a]] = h;
                     continue;
@@ -1176,7 +1179,9 @@ RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau,
     out.tau.resize(out.mesh.n_edges());
     for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along_new[out.mesh.edge_halfedge[e]];
 
-    out.flipped_faces = count_flipped_images(along_new);  // what is left: failed regions, or none
+    // What is left: failed regions, or none. Kept faces keep their images, so their flips.
+    for (Index f = 0; f < mesh.n_faces(); ++f) out.flipped_faces += !face_removed[f] && builder.flips()[f] != 0;
+    out.flipped_faces += count_flipped_images(along_new, nf);
     return out;
 }
 
@@ -1197,6 +1202,7 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     for (const ZeroRegion& r : regions)
         if (r.face >= 0) keep[r.face] = 1;
     const Flipped flipped = flip_folds(mesh, tau, keep);
+    if (flipped.flips == 0) return regularise_on(mesh, tau, regions);
     // Flips keep vertex and face ids and never touch a kept face: the regions hold as given.
     RegularisedForm out = regularise_on(flipped.mesh, flipped.tau, regions);
     for (Index& f : out.original_face)
