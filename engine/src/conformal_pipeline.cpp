@@ -108,8 +108,8 @@ void laplacian(ConformalWork& work) {
             work.weights.begin(), work.weights.end(),
             [&](double w) { return w < -kNegativeWeightTol * scale; }));
     }
-    // Any one vertex would do (potentials are defined up to a constant): the homology root,
-    // known before the homology basis.
+    // Any one vertex would do (potentials are defined up to a constant): the default homology
+    // root, which the homology stage then roots its tree at.
     work.pinned = {kernels::central_vertex(surface)};
     work.laplacian = kernels::assemble_laplacian(surface.n_vertices(), work.laplace_mesh().E,
                                                  work.weights, work.pinned);
@@ -119,7 +119,10 @@ void laplacian(ConformalWork& work) {
 void homology(ConformalWork& work, StageTimes& times) {
     ConformalResult& r = work.result;
     StageClock clock(times);
-    r.homology = kernels::compute_homology_basis(*r.surface);
+    HOLOFLOW_REQUIRE(work.pinned.size() == 1, "homology: the laplacian stage comes first");
+    kernels::HomologyOptions homology_options;
+    homology_options.root = work.pinned.front();
+    r.homology = kernels::compute_homology_basis(*r.surface, homology_options);
     clock.lap("cut_graph_and_closed_forms");
     if (work.options.closed_forms) {
         HOLOFLOW_REQUIRE(!r.double_covered, "given closed forms need closed input");

@@ -8,7 +8,6 @@
 namespace holoflow::kernels {
 namespace {
 
-
 //! Runs fn(c) for every column c; columns in parallel on large meshes, each written by one task.
 template <class Fn>
 void for_each_column(Eigen::Index n_edges, Eigen::Index n_cols, const Fn& fn) {
@@ -54,28 +53,29 @@ Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> 
     return factor.solve(harmonic_rhs(factor.size(), E, w, eta, pinned));
 }
 
-void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
-    HOLOFLOW_REQUIRE(omega.rows() == E.rows() && f.cols() == omega.cols(),
-                     "need one form value per edge and one potential per form");
-    HOLOFLOW_REQUIRE(E.size() == 0 || E.maxCoeff() < f.rows(), "edge vertex index out of range");
-    for_each_column(E.rows(), omega.cols(), [&](Eigen::Index c) {
-        double* out = omega.col(c).data();
-        const double* fc = f.col(c).data();
-        for (Eigen::Index e = 0; e < E.rows(); ++e) out[e] += fc[E(e, 1)] - fc[E(e, 0)];
-    });
-}
-
-Eigen::MatrixXd plus_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f) {
+namespace {
+//! omega = eta + d f column by column; omega may be eta itself (add_gradient).
+void sum_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
     HOLOFLOW_REQUIRE(eta.rows() == E.rows() && f.cols() == eta.cols(),
                      "need one form value per edge and one potential per form");
     HOLOFLOW_REQUIRE(E.size() == 0 || E.maxCoeff() < f.rows(), "edge vertex index out of range");
-    Eigen::MatrixXd omega(eta.rows(), eta.cols());
+    omega.resize(eta.rows(), eta.cols());  // no-op when omega is eta
     for_each_column(E.rows(), eta.cols(), [&](Eigen::Index c) {
         double* out = omega.col(c).data();
         const double* in = eta.col(c).data();
         const double* fc = f.col(c).data();
         for (Eigen::Index e = 0; e < E.rows(); ++e) out[e] = in[e] + (fc[E(e, 1)] - fc[E(e, 0)]);
     });
+}
+}  // namespace
+
+void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
+    sum_gradient(E, omega, f, omega);
+}
+
+Eigen::MatrixXd plus_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f) {
+    Eigen::MatrixXd omega;
+    sum_gradient(E, eta, f, omega);
     return omega;
 }
 

@@ -210,7 +210,7 @@ void drop_reversed_duplicates(const MeshView& mesh, std::vector<Trajectory>& out
     for (Index j = 0; j < n; ++j) {
         if (out[j].end != Trajectory::End::Collision) continue;
         for (Index i = 0; i < n && copy_of[j] < 0; ++i)
-            if (i != j && copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
+            if (copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
     }
     std::vector<Index> new_id(n, -1);
     Index kept = 0;
@@ -228,12 +228,8 @@ void drop_reversed_duplicates(const MeshView& mesh, std::vector<Trajectory>& out
         }
         t.blocker = new_id[t.blocker];
     }
-    Index w = 0;
     for (Index j = 0; j < n; ++j)
-        if (copy_of[j] < 0) {
-            if (w != j) out[w] = std::move(out[j]);
-            ++w;
-        }
+        if (new_id[j] >= 0 && new_id[j] != j) out[new_id[j]] = std::move(out[j]);
     out.resize(kept);
 }
 

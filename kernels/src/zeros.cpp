@@ -38,12 +38,12 @@ void count_windings(const MeshView& mesh, const Eigen::VectorXcd& tau, ZeroSet& 
     std::vector<double> angle(3 * static_cast<std::size_t>(nf));
     par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
         for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
+            const Complex d[3] = {image_direction(mesh, tau, 3 * f), image_direction(mesh, tau, 3 * f + 1),
+                                  image_direction(mesh, tau, 3 * f + 2)};
             double sum = 0;
             for (int k = 0; k < 3; ++k) {
-                const Index h = 3 * f + k;
-                const double a = corner_angle(image_direction(mesh, tau, h),
-                                              -image_direction(mesh, tau, MeshView::prev(h)));
-                angle[h] = a;
+                const double a = corner_angle(d[k], -d[(k + 2) % 3]);
+                angle[3 * f + k] = a;
                 sum += a;
             }
             // Counting -1 for 3 pi keeps the identity exact whatever the sum.
@@ -66,7 +66,8 @@ void count_windings(const MeshView& mesh, const Eigen::VectorXcd& tau, ZeroSet& 
 // when its two edges' signs from the corner differ. A face whose three halfedges all carry the
 // same sign (only through rounding of a closed form near 0) has three changes; it adds -1 to
 // its corner 0 so the total stays exact.
-std::vector<int> count_saddles(const MeshView& t, const Eigen::VectorXd& du, const Eigen::VectorXd& dv) {
+std::vector<int> count_saddles(const MeshView& t, Eigen::Ref<const Eigen::VectorXd> du,
+                              Eigen::Ref<const Eigen::VectorXd> dv) {
     const Index nv = t.n_vertices();
     std::vector<double> key(nv);
     for (Index v = 0; v < nv; ++v)
@@ -122,8 +123,6 @@ Adjacency special_adjacency(Index nv, const std::vector<std::pair<Index, Index>>
 
 }  // namespace
 
-ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau) { return find_zeros(mesh, tau, ZeroOptions{}); }
-
 ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options) {
     HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
     HOLOFLOW_REQUIRE(tau.allFinite(), "form has non-finite values");
@@ -140,7 +139,6 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         Eigen::MatrixXd forms(mesh.n_edges(), 2);
         forms.col(0) = tau.real();
         forms.col(1) = tau.imag();
-        bool done = false;
         if (options.intrinsic_delaunay) {
             try {
                 IntrinsicTriangulation computed;
@@ -155,12 +153,12 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
                     if (a != b && z.saddle_order[a] != 0 && z.saddle_order[b] != 0)
                         intrinsic_saddle_edges.emplace_back(a, b);
                 }
-                z.intrinsic = done = true;
+                z.intrinsic = true;
             } catch (const InvalidInput&) {
                 if (options.triangulation) throw;  // a wrong triangulation is the caller's bug
             }
         }
-        if (!done) z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));
+        if (!z.intrinsic) z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));
     }
 
     // Special vertices and their adjacency.
@@ -204,26 +202,22 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         if (special[v] && owner[v] < 0) owner[v] = folds.find(v);
 
     // Clusters numbered by their smallest vertex.
-    std::vector<Index> cluster_of_owner(nv, -1), cluster_of(nv, -1);
-    std::vector<char> has_saddle;
+    std::vector<Index> cluster_of_owner(nv, -1);
     for (Index v = 0; v < nv; ++v) {
         if (!special[v]) continue;
         Index& c = cluster_of_owner[owner[v]];
         if (c < 0) {
             c = static_cast<Index>(z.clusters.size());
             z.clusters.emplace_back();
-            has_saddle.push_back(0);
         }
-        cluster_of[v] = c;
         z.clusters[c].vertices.push_back(v);
         z.clusters[c].index += z.saddle_order[v];
-        has_saddle[c] = has_saddle[c] || z.saddle_order[v] != 0;
     }
     for (Index f = 0; f < nf; ++f)
         if (z.face_flip[f]) {
             // A flipped face's corners may sit in different clusters after the split: it goes
             // to its first corner's.
-            z.clusters[cluster_of[mesh.F(f, 0)]].flipped_faces.push_back(f);
+            z.clusters[cluster_of_owner[owner[mesh.F(f, 0)]]].flipped_faces.push_back(f);
         }
 
     // Negative clusters (a broken maximum principle) join the nearest positive one
@@ -246,7 +240,7 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
         ZeroCluster& cluster = z.clusters[c];
         if (cluster.index > 0) continue;
-        if (!has_saddle[c]) {
+        if (std::none_of(cluster.vertices.begin(), cluster.vertices.end(), [&](Index v) { return z.saddle_order[v] != 0; })) {
             ++z.fold_clusters;
             continue;
         }
@@ -267,8 +261,8 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         Zero zero;
         zero.order = cluster.index;
         zero.cluster = c;
-        for (Index v : cluster.vertices)
-            if (zero.vertex < 0 || z.saddle_order[v] > z.saddle_order[zero.vertex]) zero.vertex = v;
+        zero.vertex = *std::max_element(cluster.vertices.begin(), cluster.vertices.end(),
+                                        [&](Index a, Index b) { return z.saddle_order[a] < z.saddle_order[b]; });
         zero.point = refine_zero(mesh, tau, zero.vertex, zero.order);
         z.total_order += zero.order;
         z.zeros.push_back(zero);
@@ -287,7 +281,7 @@ ZeroPoint refine_zero(const MeshView& mesh, const Eigen::VectorXcd& tau, Index v
     for (Index h = start;;) {
         star.push_back(h);
         h = mesh.rotate(h);
-        if (h == kNoHalfedge || static_cast<Index>(star.size()) > mesh.n_halfedges()) return out;
+        if (h == kNoHalfedge) return out;
         if (h == start) break;
     }
     const int degree = order + 1;

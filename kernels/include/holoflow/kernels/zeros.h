@@ -97,8 +97,7 @@ struct ZeroOptions {
 //! piecewise linear image, which join the clusters so that regularise_zeros removes them. A
 //! zero sits at its cluster's saddle vertex (highest m_v, then smallest id). Deterministic.
 //! \pre closed mesh, tau has #E finite values.  \throw InvalidInput.
-ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options);
-ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau);
+ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options = {});
 
 //! \brief Refines a zero of order `order` at an interior `vertex` to a point of its star: the
 //! integral F of tau over the one-ring, in the cone's conformal chart zeta = (r e^{i phi})^s
