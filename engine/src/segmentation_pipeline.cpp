@@ -211,6 +211,9 @@ void cut(SegmentationWork& work) {
     for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) border[e] = r.cut.edge_trajectory[e] != kernels::kNoBorder;
     clock.lap("cutting");
     r.patches = kernels::compute_patches(r.cut.mesh, r.cut.tau, border);
+    // Where the form's uv folds (zero regions the fans could not regularise), a valid uv on
+    // the same rectangle instead; reported per patch.
+    r.patches = kernels::repair_folded_patches(r.cut.mesh, border, std::move(r.patches));
     std::vector<char> is_zero(r.cut.mesh.n_vertices(), 0);
     for (Index v : r.zero_vertices) is_zero[v] = 1;  // the cut keeps the traced mesh's vertex ids
     r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);
@@ -268,13 +271,15 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         zeros.push_back(j);
     }
     nlohmann::json types = {{"disk", 0}, {"cylinder", 0}, {"other", 0}};
-    Index flipped = 0;
+    Index flipped = 0, form_flipped = 0, repaired = 0;
     double rect_max = 0, distortion_max = 0, distortion_sum = 0;
     Index faces = 0;
     nlohmann::json patches = nlohmann::json::array();
     for (const kernels::PatchInfo& p : r.patches.info) {
         types[type_name(p.type)] = types[type_name(p.type)].get<int>() + 1;
         flipped += p.flipped_uv_triangles;
+        form_flipped += p.form_flipped_uv_triangles;
+        repaired += p.repaired;
         rect_max = std::max(rect_max, p.rectangle_error);
         distortion_max = std::max(distortion_max, p.distortion_max);
         distortion_sum += p.distortion_mean * p.faces;
@@ -287,6 +292,8 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
                            {"height", p.height},
                            {"rectangle_error", p.rectangle_error},
                            {"flipped_uv_triangles", p.flipped_uv_triangles},
+                           {"repaired", p.repaired},
+                           {"form_flipped_uv_triangles", p.form_flipped_uv_triangles},
                            {"distortion_mean", p.distortion_mean},
                            {"distortion_max", p.distortion_max}});
     }
@@ -328,6 +335,8 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"patch_count", r.patches.info.size()},
         {"patch_types", types},
         {"flipped_uv_triangles", flipped},
+        {"repaired_patches", repaired},
+        {"form_flipped_uv_triangles", form_flipped},
         {"rectangle_error_max", rect_max},
         {"conformal_distortion", {{"mean", faces ? distortion_sum / faces : 0.0}, {"max", distortion_max}}},
         {"vertices", r.cut.mesh.n_vertices()},

@@ -88,6 +88,24 @@ std::vector<double> edge_lengths(const MeshView& mesh) {
     return length;
 }
 
+double triangle_distortion(double a, double b, double c, Complex t0, Complex t2) {
+    // Source triangle laid out from its lengths: corner 0 at 0, corner 1 on the x axis.
+    const double x2 = (a * a + c * c - b * b) / (2 * a);
+    const double y2 = std::sqrt(std::max(0.0, c * c - x2 * x2));
+    const double scale = std::max({std::norm(t0), std::norm(t2 - t0), std::norm(t2)});
+    if (!(std::abs(0.5 * cross(t0, t2)) > 1e-14 * scale) || !(y2 > 0)) return std::numeric_limits<double>::infinity();
+    Eigen::Matrix2d S;  // source edge vectors corner0->corner1, corner0->corner2 as columns
+    S << a, x2, 0, y2;
+    Eigen::Matrix2d T;  // their images
+    T << t0.real(), t2.real(), t0.imag(), t2.imag();
+    // Singular values of the 2x2 Jacobian from its conformal and anti-conformal parts
+    // (|q| +- |p|): exact 1 for a similarity, no cancellation.
+    const Eigen::Matrix2d J = T * S.inverse();
+    const double conformal = std::hypot(J(0, 0) + J(1, 1), J(1, 0) - J(0, 1));
+    const double anticonformal = std::hypot(J(0, 0) - J(1, 1), J(1, 0) + J(0, 1));
+    return (conformal + anticonformal) / std::abs(conformal - anticonformal);
+}
+
 MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
                        const Eigen::VectorXcd& tau) {
     HOLOFLOW_REQUIRE(static_cast<Index>(edge_length.size()) == mesh.n_edges() &&
@@ -101,30 +119,14 @@ MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length
     const auto measure = [&](std::size_t begin, std::size_t end) {
     for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
         const Index h0 = 3 * f, h1 = 3 * f + 1, h2 = 3 * f + 2;
-        // Source triangle laid out from its lengths: corner 0 at 0, corner 1 on the x axis.
-        const double a = edge_length[mesh.halfedge_edge[h0]], b = edge_length[mesh.halfedge_edge[h1]],
-                     c = edge_length[mesh.halfedge_edge[h2]];
-        const double x2 = (a * a + c * c - b * b) / (2 * a);
-        const double y2 = std::sqrt(std::max(0.0, c * c - x2 * x2));
-        Eigen::Matrix2d S;  // source edge vectors corner0->corner1, corner0->corner2 as columns
-        S << a, x2, 0, y2;
         const Complex t0 = form_along(mesh, tau, h0), t2 = -form_along(mesh, tau, h2);
-        Eigen::Matrix2d T;  // their images
-        T << t0.real(), t2.real(), t0.imag(), t2.imag();
-        const double image_area = 0.5 * T.determinant();
-        const Complex t1 = form_along(mesh, tau, h1);
-        const double scale = std::max({std::norm(t0), std::norm(t1), std::norm(t2)});
-        if (!(std::abs(image_area) > 1e-14 * scale) || !(y2 > 0)) {
+        const double d = triangle_distortion(edge_length[mesh.halfedge_edge[h0]], edge_length[mesh.halfedge_edge[h1]],
+                                             edge_length[mesh.halfedge_edge[h2]], t0, t2);
+        if (!std::isfinite(d)) {
             state[f] = kDegenerate;
             continue;
         }
-        if (image_area < 0) state[f] = kFlipped;
-        // Singular values of the 2x2 Jacobian from its conformal and anti-conformal parts
-        // (|q| +- |p|): exact 1 for a similarity, no cancellation.
-        const Eigen::Matrix2d J = T * S.inverse();
-        const double conformal = std::hypot(J(0, 0) + J(1, 1), J(1, 0) - J(0, 1));
-        const double anticonformal = std::hypot(J(0, 0) - J(1, 1), J(1, 0) + J(0, 1));
-        const double d = (conformal + anticonformal) / std::abs(conformal - anticonformal);
+        if (cross(t0, t2) < 0) state[f] = kFlipped;
         q.face_distortion[f] = d;
     }
     };

@@ -3,8 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
+#include <Eigen/Geometry>
+
+#include "holoflow/kernels/cholesky.h"
 #include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/flow_cut.h"
 #include "holoflow/kernels/union_find.h"
@@ -14,6 +19,211 @@ namespace {
 
 using Complex = std::complex<double>;
 constexpr double kFlipTol = 1e-12;  // signed uv area below -tol * (longest edge)^2 is a flip
+
+constexpr double kSideBulge = 1e-4;       // repaired borders: bulge of a side over its length
+constexpr Index kCornerCandidates = 32;  // border points tried per rectangle corner
+
+bool flipped_uv(Complex a, Complex b, Complex c) {
+    const double scale = std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)});
+    return cross(b - a, c - a) < -kFlipTol * scale;
+}
+
+// Distance of a border point from the nearest side of the rectangle [0, w] x [0, h].
+double off_rectangle(Complex z, double w, double h) {
+    return std::min({std::abs(z.real()), std::abs(w - z.real()), std::abs(z.imag()), std::abs(h - z.imag())});
+}
+
+bool on_border(const MeshView& mesh, std::span<const char> border, Index h) {
+    return mesh.twin[h] == kNoHalfedge || border[mesh.halfedge_edge[h]];
+}
+
+// The border halfedge of the same patch that leaves head(h): turn around head(h) inside it.
+Index next_on_border(const MeshView& mesh, std::span<const char> border, Index h) {
+    Index n = MeshView::next(h);
+    while (!on_border(mesh, border, n)) n = MeshView::next(mesh.twin[n]);
+    return n;
+}
+
+// Corners (named by the halfedge leaving them) around a vertex joined across non-border edges:
+// the points of the patches cut open.
+UnionFind patch_points(const MeshView& mesh, std::span<const char> border) {
+    UnionFind points(mesh.n_halfedges());
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) {
+        const Index p_edge = MeshView::prev(h), t = mesh.twin[p_edge];
+        if (t == kNoHalfedge || border[mesh.halfedge_edge[p_edge]]) continue;
+        points.unite(h, t);  // t leaves tail(h): the next corner around it
+    }
+    return points;
+}
+
+// One folded disk patch laid out again on its rectangle (see repair_folded_patches); false
+// leaves its uv untouched. `local` is #H scratch, all -1, and left so.
+bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, UnionFind& points,
+                        const std::vector<Index>& faces, Index first_border, const PatchInfo& info,
+                        std::vector<Index>& local, std::vector<Complex>& corner_uv) {
+    const double w = info.width, h = info.height;
+    if (!(w > 0 && h > 0)) return false;
+    std::vector<Index> roots;
+    for (Index f : faces)
+        for (int k = 0; k < 3; ++k) {
+            const Index r = points.find(3 * f + k);
+            if (local[r] < 0) local[r] = static_cast<Index>(roots.size()), roots.push_back(r);
+        }
+    const auto clear = [&] {
+        for (Index r : roots) local[r] = -1;
+    };
+    const Index n = static_cast<Index>(roots.size());
+    // The border loop, counter-clockwise (the patch on its left); each point once.
+    std::vector<Index> loop;
+    std::vector<char> is_border(n, 0);
+    for (Index e = first_border;;) {
+        const Index q = local[points.find(e)];
+        if (is_border[q] || static_cast<Index>(loop.size()) >= n) return clear(), false;
+        is_border[q] = 1;
+        loop.push_back(e);
+        e = next_on_border(mesh, border, e);
+        if (e == first_border) break;
+    }
+    const Index m = static_cast<Index>(loop.size());
+    if (m < 4) return clear(), false;
+    // Corners: four border points in counter-clockwise order, nearest the rectangle's corners
+    // (least sum of squared distances; first best on ties).
+    const std::array<Complex, 4> corner{Complex(0, 0), Complex(w, 0), Complex(w, h), Complex(0, h)};
+    std::array<Index, 4> at{};
+    {
+        const auto cost = [&](int c, Index i) { return std::norm(corner_uv[loop[i]] - corner[c]); };
+        // Candidates: the points nearest each corner (all of them on short borders).
+        std::vector<Index> candidates(m);
+        std::iota(candidates.begin(), candidates.end(), Index{0});
+        if (m > 4 * kCornerCandidates) {
+            std::vector<Index> nearest, order = candidates;
+            for (int c = 0; c < 4; ++c) {
+                std::partial_sort(order.begin(), order.begin() + kCornerCandidates, order.end(), [&](Index i, Index j) {
+                    return std::pair(cost(c, i), i) < std::pair(cost(c, j), j);
+                });
+                nearest.insert(nearest.end(), order.begin(), order.begin() + kCornerCandidates);
+            }
+            std::sort(nearest.begin(), nearest.end());
+            nearest.erase(std::unique(nearest.begin(), nearest.end()), nearest.end());
+            candidates.swap(nearest);
+        }
+        // For each first corner, one pass per later corner over the candidates after it,
+        // keeping the best choice so far (a running minimum).
+        constexpr double kNone = std::numeric_limits<double>::infinity();
+        const Index nc = static_cast<Index>(candidates.size());
+        double best = kNone;
+        std::vector<double> previous(nc), next(nc);
+        std::vector<std::array<Index, 4>> picks(nc), next_picks(nc);
+        for (Index i0 = 0; i0 < nc; ++i0) {
+            const auto position = [&](Index j) { return candidates[(i0 + j) % nc]; };
+            std::fill(previous.begin(), previous.end(), kNone);
+            previous[0] = cost(0, position(0));
+            picks[0][0] = position(0);
+            for (int c = 1; c < 4; ++c) {
+                std::fill(next.begin(), next.end(), kNone);
+                Index run = -1;  // best previous choice before j
+                for (Index j = 1; j < nc; ++j) {
+                    if (previous[j - 1] < (run < 0 ? kNone : previous[run])) run = j - 1;
+                    if (run < 0) continue;
+                    next[j] = previous[run] + cost(c, position(j));
+                    next_picks[j] = picks[run];
+                    next_picks[j][c] = position(j);
+                }
+                previous.swap(next);
+                picks.swap(next_picks);
+            }
+            for (Index j = 0; j < nc; ++j)
+                if (previous[j] < best) best = previous[j], at = picks[j];
+        }
+        if (!(best < kNone)) return clear(), false;
+    }
+    Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, 2);
+    const auto place = [&](Index i, Complex z) {
+        const Index q = local[points.find(loop[i % m])];
+        x(q, 0) = z.real();
+        x(q, 1) = z.imag();
+    };
+    for (int c = 0; c < 4; ++c) {
+        const Index begin = at[c], count = (at[(c + 1) % 4] - at[c] + m) % m;
+        const Complex a = corner[c], b = corner[(c + 1) % 4];
+        // Where along the side: the uv projected on it if that increases, else 3D arc length
+        // (else the point count, for zero-length edges).
+        std::vector<double> t(count + 1, 0), arc(count + 1, 0);
+        bool increasing = true;
+        for (Index j = 1; j < count; ++j) {
+            const Complex z = corner_uv[loop[(begin + j) % m]];
+            t[j] = ((z - a) * std::conj(b - a)).real() / std::norm(b - a);
+            increasing = increasing && t[j] > t[j - 1] && t[j] < 1;
+        }
+        t[count] = 1;
+        for (Index j = 1; j <= count; ++j) {
+            const Index e = loop[(begin + j - 1) % m];
+            arc[j] = arc[j - 1] + (mesh.V.row(mesh.head(e)) - mesh.V.row(mesh.tail(e))).norm();
+            increasing = increasing && arc[j] > arc[j - 1];
+        }
+        // Bulged outwards a little: a strictly convex border, so that a triangle with its three
+        // points on one side still has an area (Floater's theorem then holds for every face).
+        const Complex outward = (b - a) * Complex(0, -kSideBulge);
+        for (Index j = 0; j < count; ++j) {
+            const double s = increasing             ? t[j]
+                             : arc[count] > 0       ? arc[j] / arc[count]
+                                                    : static_cast<double>(j) / static_cast<double>(count);
+            place(begin + j, a + s * (b - a) + 4 * s * (1 - s) * outward);
+        }
+    }
+    // Positive weights: cotangent weights from the 3D triangles, clamped.
+    std::vector<std::pair<std::pair<Index, Index>, double>> half;
+    for (Index f : faces) {
+        const Index v[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
+        for (int k = 0; k < 3; ++k) {
+            const Eigen::RowVector3d e1 = mesh.V.row(v[(k + 1) % 3]) - mesh.V.row(v[k]);
+            const Eigen::RowVector3d e2 = mesh.V.row(v[(k + 2) % 3]) - mesh.V.row(v[k]);
+            double cot = e1.dot(e2) / e1.cross(e2).norm();
+            if (!std::isfinite(cot)) cot = 0;
+            Index a = local[points.find(3 * f + (k + 1) % 3)], b = local[points.find(3 * f + (k + 2) % 3)];
+            if (a > b) std::swap(a, b);
+            half.push_back({{a, b}, 0.5 * cot});
+        }
+    }
+    std::sort(half.begin(), half.end(), [](const auto& p, const auto& q) { return p.first < q.first; });
+    std::vector<std::pair<Index, Index>> edges;
+    std::vector<double> weight;
+    for (const auto& [pair, value] : half) {
+        if (edges.empty() || edges.back() != pair) edges.push_back(pair), weight.push_back(0);
+        weight.back() += value;
+    }
+    double mean = 0;
+    for (double value : weight) mean += std::abs(value) / static_cast<double>(weight.size());
+    const double floor = mean > 0 ? 1e-3 * mean : 1.0;
+    for (double& value : weight) value = std::max(value, floor);
+    std::vector<Index> pinned;
+    for (Index q = 0; q < n; ++q)
+        if (is_border[q]) pinned.push_back(q);
+    if (static_cast<Index>(pinned.size()) < n) {
+        EdgeMatrix E(static_cast<Index>(edges.size()), 2);
+        Eigen::MatrixXd b = x;  // pinned rows keep their place; interior rows sum their border neighbours
+        for (Index i = 0; i < static_cast<Index>(edges.size()); ++i) {
+            const auto [p, q] = edges[i];
+            E(i, 0) = p;
+            E(i, 1) = q;
+            if (!is_border[p] && is_border[q]) b.row(p) += weight[i] * x.row(q);
+            if (!is_border[q] && is_border[p]) b.row(q) += weight[i] * x.row(p);
+        }
+        const LaplacianMatrix L = assemble_laplacian(n, E, weight, std::move(pinned));
+        try {
+            x = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L)->solve(b);
+        } catch (const SolverFailure&) {
+            return clear(), false;
+        }
+    }
+    for (Index f : faces)
+        for (int k = 0; k < 3; ++k) {
+            const Index q = local[points.find(3 * f + k)];
+            corner_uv[3 * f + k] = Complex(x(q, 0), x(q, 1));
+        }
+    clear();
+    return true;
+}
 
 }  // namespace
 
@@ -66,9 +276,7 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
         const Index id = p.face_patch[f];
         ++info.faces;
         const Complex a = p.corner_uv[3 * f], b = p.corner_uv[3 * f + 1], c = p.corner_uv[3 * f + 2];
-        const double area = cross(b - a, c - a);
-        const double scale = std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)});
-        info.flipped_uv_triangles += area < -kFlipTol * scale;
+        info.flipped_uv_triangles += flipped_uv(a, b, c);
         for (const Complex z : {a, b, c}) {
             lo[id] = {std::min(lo[id].real(), z.real()), std::min(lo[id].imag(), z.imag())};
             hi[id] = {std::max(hi[id].real(), z.real()), std::max(hi[id].imag(), z.imag())};
@@ -85,35 +293,19 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
             (inner ? interior_halfedges : border_halfedges)[id] += 1;
         }
     }
-    // Vertices of each patch cut open: corners around a vertex joined across non-border edges.
-    UnionFind wedges(mesh.n_halfedges());
-    for (Index h = 0; h < mesh.n_halfedges(); ++h) {
-        const Index p_edge = MeshView::prev(h), t = mesh.twin[p_edge];
-        if (t == kNoHalfedge || border[mesh.halfedge_edge[p_edge]]) continue;
-        wedges.unite(h, t);  // t leaves tail(h): the next corner around it
-    }
+    // Vertices of each patch cut open.
+    UnionFind points = patch_points(mesh, border);
     std::vector<Index> vertices(np, 0);
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
-        if (wedges.find(h) == h) ++vertices[p.face_patch[MeshView::face(h)]];
+        if (points.find(h) == h) ++vertices[p.face_patch[MeshView::face(h)]];
 
     // Border loops: follow border halfedges of the patch around its faces.
     std::vector<char> walked(mesh.n_halfedges(), 0);
     std::vector<int> loops(np, 0);
-    const auto is_border = [&](Index h) {
-        return mesh.twin[h] == kNoHalfedge || border[mesh.halfedge_edge[h]];
-    };
     for (Index h0 = 0; h0 < mesh.n_halfedges(); ++h0) {
-        if (walked[h0] || !is_border(h0)) continue;
-        const Index id = p.face_patch[MeshView::face(h0)];
-        ++loops[id];
-        Index h = h0;
-        while (!walked[h]) {
-            walked[h] = 1;
-            // Next border halfedge of this patch leaving head(h): turn around head(h) inside the patch.
-            Index n = MeshView::next(h);
-            while (!is_border(n)) n = MeshView::next(mesh.twin[n]);
-            h = n;
-        }
+        if (walked[h0] || !on_border(mesh, border, h0)) continue;
+        ++loops[p.face_patch[MeshView::face(h0)]];
+        for (Index h = h0; !walked[h]; h = next_on_border(mesh, border, h)) walked[h] = 1;
     }
     for (Index id = 0; id < np; ++id) {
         PatchInfo& info = p.info[id];
@@ -131,14 +323,66 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
         for (int k = 0; k < 3; ++k) p.corner_uv[3 * f + k] -= lo[p.face_patch[f]];
     // Rectangle fit: border corners against the nearest side.
     for (Index h = 0; h < mesh.n_halfedges(); ++h) {
-        if (!is_border(h)) continue;
-        const Index id = p.face_patch[MeshView::face(h)];
-        PatchInfo& info = p.info[id];
-        const Complex z = p.corner_uv[h];
-        const double d = std::min({std::abs(z.real()), std::abs(info.width - z.real()), std::abs(z.imag()),
-                                   std::abs(info.height - z.imag())});
+        if (!on_border(mesh, border, h)) continue;
+        PatchInfo& info = p.info[p.face_patch[MeshView::face(h)]];
         const double size = std::max(info.width, info.height);
-        if (size > 0) info.rectangle_error = std::max(info.rectangle_error, d / size);
+        if (size > 0) info.rectangle_error = std::max(info.rectangle_error, off_rectangle(p.corner_uv[h], info.width, info.height) / size);
+    }
+    for (PatchInfo& info : p.info) info.form_flipped_uv_triangles = info.flipped_uv_triangles;
+    return p;
+}
+
+Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border, Patches p) {
+    HOLOFLOW_REQUIRE(static_cast<Index>(border.size()) == mesh.n_edges() &&
+                         static_cast<Index>(p.face_patch.size()) == mesh.n_faces() &&
+                         p.corner_uv.size() == 3 * static_cast<std::size_t>(mesh.n_faces()),
+                     "patches and border flags must belong to this mesh");
+    const Index np = static_cast<Index>(p.info.size());
+    std::vector<std::vector<Index>> faces(np);
+    std::vector<Index> first_border(np, kNoHalfedge);
+    bool any = false;
+    for (const PatchInfo& info : p.info) any = any || (info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles > 0);
+    if (!any) return p;
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        const Index id = p.face_patch[f];
+        HOLOFLOW_REQUIRE(id >= 0 && id < np, "face " + std::to_string(f) + " has no patch");
+        if (p.info[id].type != PatchInfo::Type::Disk || p.info[id].flipped_uv_triangles == 0) continue;
+        faces[id].push_back(f);
+        for (int k = 0; k < 3; ++k)
+            if (first_border[id] == kNoHalfedge && on_border(mesh, border, 3 * f + k)) first_border[id] = 3 * f + k;
+    }
+    UnionFind points = patch_points(mesh, border);
+    std::vector<Index> local(mesh.n_halfedges(), -1);
+    const std::vector<double> length = edge_lengths(mesh);
+    for (Index id = 0; id < np; ++id) {
+        PatchInfo& info = p.info[id];
+        if (faces[id].empty() || first_border[id] == kNoHalfedge) continue;
+        std::vector<Complex> form_uv;
+        for (Index f : faces[id]) form_uv.insert(form_uv.end(), &p.corner_uv[3 * f], &p.corner_uv[3 * f] + 3);
+        if (!embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, local, p.corner_uv)) continue;
+        Index flips = 0;
+        for (Index f : faces[id]) flips += flipped_uv(p.corner_uv[3 * f], p.corner_uv[3 * f + 1], p.corner_uv[3 * f + 2]);
+        if (flips >= info.flipped_uv_triangles) {  // rounding beat the theorem: keep the form's uv
+            for (std::size_t i = 0; i < faces[id].size(); ++i)
+                std::copy_n(&form_uv[3 * i], 3, &p.corner_uv[3 * faces[id][i]]);
+            continue;
+        }
+        info.repaired = true;
+        info.flipped_uv_triangles = 0;
+        info.distortion_max = info.distortion_mean = info.rectangle_error = 0;
+        Index finite = 0;
+        const double size = std::max(info.width, info.height);
+        for (Index f : faces[id]) {
+            const Complex a = p.corner_uv[3 * f], b = p.corner_uv[3 * f + 1], c = p.corner_uv[3 * f + 2];
+            info.flipped_uv_triangles += flipped_uv(a, b, c);
+            const double d = triangle_distortion(length[mesh.halfedge_edge[3 * f]], length[mesh.halfedge_edge[3 * f + 1]],
+                                                 length[mesh.halfedge_edge[3 * f + 2]], b - a, c - a);
+            if (std::isfinite(d)) info.distortion_mean += d, info.distortion_max = std::max(info.distortion_max, d), ++finite;
+            for (int k = 0; k < 3; ++k)
+                if (on_border(mesh, border, 3 * f + k))
+                    info.rectangle_error = std::max(info.rectangle_error, off_rectangle(p.corner_uv[3 * f + k], info.width, info.height) / size);
+        }
+        if (finite > 0) info.distortion_mean /= static_cast<double>(finite);
     }
     return p;
 }

@@ -120,6 +120,29 @@ TEST(Segmentation, LayoutPatchesAreRectanglesOnWellShapedMeshes) {
     }
 }
 
+// On CAD meshes (needle triangles; images tangled near zeros over regions the fans cannot
+// regularise) the form's uv can fold in a few patches; those are laid out again on their
+// rectangles (kernels::repair_folded_patches). Every patch ends up a valid disk.
+TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
+    constexpr double kRepairedRectangleTol = 1e-4;  // repaired sides bulge by this much
+    for (const char* name : {"anchor", "turbine", "couplingdown", "femur"}) {
+        SCOPED_TRACE(name);
+        const SegmentationResult r = segment(*test::corpus_mesh(name));
+        EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+        EXPECT_EQ(flipped(r), 0);
+        for (const kernels::PatchInfo& p : r.patches.info) {
+            if (p.repaired) {
+                EXPECT_GT(p.form_flipped_uv_triangles, 0);
+                EXPECT_LE(p.rectangle_error, kRepairedRectangleTol);
+            } else {
+                EXPECT_EQ(p.form_flipped_uv_triangles, 0);
+                EXPECT_LT(p.rectangle_error, kRectangleTol);
+            }
+            EXPECT_TRUE(std::isfinite(p.distortion_max));
+        }
+    }
+}
+
 TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
     for (const MeshView& torus : {shapes::torus(2, 1, 48, 24), *test::corpus_mesh("knot")}) {
         const SegmentationResult r = segment(torus);

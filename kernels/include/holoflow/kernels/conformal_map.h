@@ -58,6 +58,11 @@ struct MapQuality {
 MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
                        const Eigen::VectorXcd& tau);
 
+//! Conformal distortion (as in MapQuality) of the affine map taking a triangle with edge lengths
+//! a = |c0 c1|, b = |c1 c2|, c = |c2 c0| to the image with edge vectors c0 -> c1 = t0 and
+//! c0 -> c2 = t2; infinity when the triangle or its image is degenerate.
+double triangle_distortion(double a, double b, double c, std::complex<double> t0, std::complex<double> t2);
+
 //! Euclidean length of every edge of a mesh from its positions.
 std::vector<double> edge_lengths(const MeshView& mesh);
 

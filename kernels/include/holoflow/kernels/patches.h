@@ -23,6 +23,10 @@ struct PatchInfo {
     double rectangle_error = 0;
     Index flipped_uv_triangles = 0;   //!< negative signed uv area beyond rounding
     double distortion_mean = 0, distortion_max = 0;  //!< conformal distortion (1 = conformal)
+    //! Its uv is a positive-weight embedding on the rectangle, not the form's integral, which
+    //! folded (see repair_folded_patches).
+    bool repaired = false;
+    Index form_flipped_uv_triangles = 0;  //!< flipped triangles of the form's integral
 };
 
 //! Patches of a cut mesh: faces joined across edges that are neither borders nor boundary.
@@ -39,6 +43,20 @@ struct Patches {
 //! triangles and conformal distortion against the 3D triangles.
 //! \pre `border` has #E flags, tau #E values.  \throw InvalidInput.
 Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border);
+
+//! \brief Gives each disk patch whose uv (the integral of the form) has flipped triangles a
+//! valid uv on the same rectangle instead. Its border loop is laid on the rectangle's sides:
+//! the corners are the border points nearest the rectangle's corners, and each side keeps its
+//! points in walking order, at their uv projected on the side where that increases, else at
+//! their 3D arc length. The interior is a Tutte-Floater embedding: each interior point the
+//! weighted mean of its neighbours, weights the cotangent weights clamped positive (one sparse
+//! SPD solve). With a convex border and positive weights no triangle flips; a triangle can only
+//! degenerate where an interior edge joins two points of one side. Flips, distortion and
+//! rectangle error are measured again; `form_flipped_uv_triangles` keeps the form's count.
+//! Patches that are not disks, touch themselves on their border or whose four corners do not
+//! come in order around it are left as they are. Deterministic.
+//! \pre `patches` from compute_patches on this mesh and border.  \throw InvalidInput.
+Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border, Patches patches);
 
 //! The flow complex G = (V, E, F): nodes (zeros, corners where borders meet or change kind),
 //! pieces (maximal border paths between nodes, or node-less loops) and patches.

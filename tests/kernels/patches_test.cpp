@@ -1,0 +1,150 @@
+#include "holoflow/kernels/patches.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <complex>
+#include <vector>
+
+#include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/shapes.h"
+#include "support/plane_zeros.h"
+
+namespace holoflow::kernels {
+namespace {
+
+using Complex = std::complex<double>;
+using test::form_of;
+using test::point;
+
+constexpr double kBulge = 1e-4;  // repaired sides bulge out by at most this much of their length
+
+// The grid [0, 2] x [0, 1] (nx by ny cells) and its identity image.
+struct Sheet {
+    MeshView mesh;
+    std::vector<Complex> image;
+};
+
+Sheet sheet(int nx, int ny) {
+    Sheet s{shapes::flat_grid(nx, ny), {}};
+    for (Index v = 0; v < s.mesh.n_vertices(); ++v) s.mesh.V(v, 0) *= 2;
+    for (Index v = 0; v < s.mesh.n_vertices(); ++v) s.image.push_back(point(s.mesh, v));
+    return s;
+}
+
+Index nearest_vertex(const MeshView& m, Complex z) {
+    Index best = 0;
+    for (Index v = 1; v < m.n_vertices(); ++v)
+        if (std::abs(point(m, v) - z) < std::abs(point(m, best) - z)) best = v;
+    return best;
+}
+
+// Smallest uv area of the patch's triangles over their longest squared edge (> 0: none
+// flipped or degenerate).
+double smallest_relative_area(const MeshView& m, const Patches& p, Index patch) {
+    double smallest = std::numeric_limits<double>::infinity();
+    for (Index f = 0; f < m.n_faces(); ++f) {
+        if (p.face_patch[f] != patch) continue;
+        const Complex a = p.corner_uv[3 * f], b = p.corner_uv[3 * f + 1], c = p.corner_uv[3 * f + 2];
+        smallest = std::min(smallest, cross(b - a, c - a) / std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)}));
+    }
+    return smallest;
+}
+
+TEST(PatchRepair, FoldedDiskIsLaidOnItsRectangleWithNoFlip) {
+    Sheet s = sheet(12, 6);
+    // Fold the image: three interior points thrown across their neighbours (inside the sheet,
+    // so the rectangle stays 2 x 1).
+    for (const auto& [from, to] : {std::pair{Complex(0.5, 0.5), Complex(0.9, 0.3)},
+                                   {Complex(1.0, 0.5), Complex(0.6, 0.8)}, {Complex(1.5, 1.0 / 3), Complex(1.9, 0.9)}})
+        s.image[nearest_vertex(s.mesh, from)] = to;
+    const std::vector<char> border(s.mesh.n_edges(), 0);
+    const Patches folded = compute_patches(s.mesh, form_of(s.mesh, s.image), border);
+    ASSERT_EQ(folded.info.size(), 1u);
+    ASSERT_EQ(folded.info[0].type, PatchInfo::Type::Disk);
+    const Index flips = folded.info[0].flipped_uv_triangles;
+    ASSERT_GT(flips, 0);
+    EXPECT_EQ(folded.info[0].form_flipped_uv_triangles, flips);
+    EXPECT_FALSE(folded.info[0].repaired);
+
+    const Patches p = repair_folded_patches(s.mesh, border, folded);
+    const PatchInfo& info = p.info[0];
+    EXPECT_TRUE(info.repaired);
+    EXPECT_EQ(info.flipped_uv_triangles, 0);
+    EXPECT_EQ(info.form_flipped_uv_triangles, flips);
+    EXPECT_GT(smallest_relative_area(s.mesh, p, 0), 1e-6);
+    EXPECT_DOUBLE_EQ(info.width, 2);
+    EXPECT_DOUBLE_EQ(info.height, 1);
+    EXPECT_LE(info.rectangle_error, kBulge);
+    EXPECT_GE(info.distortion_mean, 1);
+    EXPECT_TRUE(std::isfinite(info.distortion_max));
+    // Every point where it was, up to the bulge of the sides: the sheet's own border was a
+    // rectangle already, and the interior follows its neighbours.
+    for (Index f = 0; f < s.mesh.n_faces(); ++f)
+        for (int k = 0; k < 3; ++k) {
+            const Index v = s.mesh.F(f, k);
+            const Complex z = point(s.mesh, v);
+            const bool on_side = z.real() == 0 || z.real() == 2 || z.imag() == 0 || z.imag() == 1;
+            if (on_side) EXPECT_LE(std::abs(p.corner_uv[3 * f + k] - z), 2 * kBulge) << v;
+        }
+}
+
+TEST(PatchRepair, OnlyFoldedPatchesChange) {
+    Sheet s = sheet(12, 6);
+    s.image[nearest_vertex(s.mesh, Complex(0.5, 0.5))] = Complex(0.85, 0.3);  // left half folds
+    // Two patches: the column x = 1 is a border.
+    std::vector<char> border(s.mesh.n_edges(), 0);
+    for (Index e = 0; e < s.mesh.n_edges(); ++e)
+        border[e] = s.mesh.V(s.mesh.E(e, 0), 0) == 1 && s.mesh.V(s.mesh.E(e, 1), 0) == 1;
+    const Patches before = compute_patches(s.mesh, form_of(s.mesh, s.image), border);
+    ASSERT_EQ(before.info.size(), 2u);
+    const Index folded = before.info[0].flipped_uv_triangles > 0 ? 0 : 1;
+    ASSERT_GT(before.info[folded].flipped_uv_triangles, 0);
+    ASSERT_EQ(before.info[1 - folded].flipped_uv_triangles, 0);
+
+    const Patches after = repair_folded_patches(s.mesh, border, before);
+    EXPECT_TRUE(after.info[folded].repaired);
+    EXPECT_EQ(after.info[folded].flipped_uv_triangles, 0);
+    EXPECT_FALSE(after.info[1 - folded].repaired);
+    EXPECT_EQ(after.face_patch, before.face_patch);
+    for (Index f = 0; f < s.mesh.n_faces(); ++f)
+        if (before.face_patch[f] != folded)
+            for (int k = 0; k < 3; ++k) EXPECT_EQ(after.corner_uv[3 * f + k], before.corner_uv[3 * f + k]);
+    EXPECT_EQ(after.info[1 - folded].rectangle_error, before.info[1 - folded].rectangle_error);
+}
+
+TEST(PatchRepair, EarOnOneSideGetsAnArea) {
+    // Bottom points b0..b4, top corners t0, t4, one interior point c. The ear (b1, b2, b3) has
+    // its three points on the bottom side: on a straight side it would be flat; the sides
+    // bulge so that it is not. c's image is pulled below the bottom side: its lower triangles flip.
+    PointMatrix V(8, 3);
+    V << 0, 0, 0, 1, 0, 0, 2, 0, 0.5, 3, 0, 0, 4, 0, 0, 4, 1, 0, 0, 1, 0, 2, 0.6, 0;
+    enum : Index { b0, b1, b2, b3, b4, t4, t0, c };
+    TriangleMatrix F(7, 3);
+    F << b1, b2, b3, b0, b1, c, b1, b3, c, b3, b4, c, b4, t4, c, t4, t0, c, t0, b0, c;
+    const MeshView m = make_mesh_view(V, F);
+    std::vector<Complex> image;
+    for (Index v = 0; v < m.n_vertices(); ++v) image.push_back(point(m, v));
+    image[c] = Complex(2, -0.01);
+    const std::vector<char> border(m.n_edges(), 0);
+    const Patches folded = compute_patches(m, form_of(m, image), border);
+    ASSERT_GT(folded.info[0].flipped_uv_triangles, 0);
+    const Patches p = repair_folded_patches(m, border, folded);
+    EXPECT_TRUE(p.info[0].repaired);
+    EXPECT_EQ(p.info[0].flipped_uv_triangles, 0);
+    EXPECT_GT(smallest_relative_area(m, p, 0), 1e-12);
+    EXPECT_LE(p.info[0].rectangle_error, kBulge);
+}
+
+TEST(PatchRepair, RefusesPatchesOfAnotherMesh) {
+    const Sheet s = sheet(4, 4);
+    const std::vector<char> border(s.mesh.n_edges(), 0);
+    const Patches p = compute_patches(s.mesh, form_of(s.mesh, s.image), border);
+    const Sheet other = sheet(5, 4);
+    EXPECT_THROW(repair_folded_patches(other.mesh, std::vector<char>(other.mesh.n_edges(), 0), p), InvalidInput);
+    EXPECT_THROW(repair_folded_patches(s.mesh, std::vector<char>(3, 0), p), InvalidInput);
+}
+
+}  // namespace
+}  // namespace holoflow::kernels
