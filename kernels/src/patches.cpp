@@ -368,13 +368,12 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
             continue;
         }
         info.repaired = true;
-        info.flipped_uv_triangles = 0;
+        info.flipped_uv_triangles = flips;
         info.distortion_max = info.distortion_mean = info.rectangle_error = 0;
         Index finite = 0;
         const double size = std::max(info.width, info.height);
         for (Index f : faces[id]) {
             const Complex a = p.corner_uv[3 * f], b = p.corner_uv[3 * f + 1], c = p.corner_uv[3 * f + 2];
-            info.flipped_uv_triangles += flipped_uv(a, b, c);
             const double d = triangle_distortion(length[mesh.halfedge_edge[3 * f]], length[mesh.halfedge_edge[3 * f + 1]],
                                                  length[mesh.halfedge_edge[3 * f + 2]], b - a, c - a);
             if (std::isfinite(d)) info.distortion_mean += d, info.distortion_max = std::max(info.distortion_max, d), ++finite;
