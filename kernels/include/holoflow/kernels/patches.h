@@ -48,13 +48,14 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
 //! valid uv on the same rectangle instead. Its border loop is laid on the rectangle's sides:
 //! the corners are the border points nearest the rectangle's corners, and each side keeps its
 //! points in walking order, at their uv projected on the side where that increases, else at
-//! their 3D arc length. The interior is a Tutte-Floater embedding: each interior point the
-//! weighted mean of its neighbours, weights the cotangent weights clamped positive (one sparse
-//! SPD solve). With a convex border and positive weights no triangle flips; a triangle can only
-//! degenerate where an interior edge joins two points of one side. Flips, distortion and
-//! rectangle error are measured again; `form_flipped_uv_triangles` keeps the form's count.
-//! Patches that are not disks, touch themselves on their border or whose four corners do not
-//! come in order around it are left as they are. Deterministic.
+//! their 3D arc length, and bulges out by 1e-4 of its length (a strictly convex border, so a
+//! triangle with three points on one side is not flat). The interior is a Tutte-Floater
+//! embedding: each interior point the weighted mean of its neighbours, weights the cotangent
+//! weights clamped positive (one sparse SPD solve). With a strictly convex border and positive
+//! weights no triangle flips or degenerates (should rounding leave as many flips as the form
+//! had, the form's uv stays). Flips, distortion and rectangle error are measured again;
+//! `form_flipped_uv_triangles` keeps the form's count. Patches that are not disks or touch
+//! themselves on their border are left as they are. Deterministic.
 //! \pre `patches` from compute_patches on this mesh and border.  \throw InvalidInput.
 Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border, Patches patches);
 
