@@ -279,7 +279,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         types[type_name(p.type)] = types[type_name(p.type)].get<int>() + 1;
         flipped += p.flipped_uv_triangles;
         form_flipped += p.form_flipped_uv_triangles;
-        repaired += p.repaired;
+        repaired += p.repaired();
         rect_max = std::max(rect_max, p.rectangle_error);
         distortion_max = std::max(distortion_max, p.distortion_max);
         distortion_sum += p.distortion_mean * p.faces;
@@ -292,7 +292,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
                            {"height", p.height},
                            {"rectangle_error", p.rectangle_error},
                            {"flipped_uv_triangles", p.flipped_uv_triangles},
-                           {"repaired", p.repaired},
+                           {"repaired", p.repaired()},
                            {"form_flipped_uv_triangles", p.form_flipped_uv_triangles},
                            {"distortion_mean", p.distortion_mean},
                            {"distortion_max", p.distortion_max}});

@@ -56,11 +56,12 @@ UnionFind patch_points(const MeshView& mesh, std::span<const char> border) {
     return points;
 }
 
-// One folded disk patch laid out again on its rectangle (see repair_folded_patches); false
-// leaves its uv untouched. `local` is #H scratch, all -1, and left so.
+// One folded disk patch laid out again on its rectangle (see repair_folded_patches): the uv of
+// corner k of faces[i] in uv[3 i + k]; false if the patch cannot be. `local` is #H scratch, all
+// -1, and left so.
 bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, UnionFind& points,
                         const std::vector<Index>& faces, Index first_border, const PatchInfo& info,
-                        std::vector<Index>& local, std::vector<Complex>& corner_uv) {
+                        std::span<const Complex> corner_uv, std::vector<Index>& local, std::vector<Complex>& uv) {
     const double w = info.width, h = info.height;
     if (!(w > 0 && h > 0)) return false;
     std::vector<Index> roots;
@@ -171,7 +172,8 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
             place(begin + j, a + s * (b - a) + 4 * s * (1 - s) * outward);
         }
     }
-    // Positive weights: cotangent weights from the 3D triangles, clamped.
+    // Positive weights: cotangent weights from the 3D triangles, clamped. Computed here, not by
+    // cotan_weights: the cut can leave zero-area faces, which that refuses; they weigh 0 here.
     std::vector<std::pair<std::pair<Index, Index>, double>> half;
     for (Index f : faces) {
         const Index v[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
@@ -216,10 +218,11 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
             return clear(), false;
         }
     }
-    for (Index f : faces)
+    uv.resize(3 * faces.size());
+    for (std::size_t i = 0; i < faces.size(); ++i)
         for (int k = 0; k < 3; ++k) {
-            const Index q = local[points.find(3 * f + k)];
-            corner_uv[3 * f + k] = Complex(x(q, 0), x(q, 1));
+            const Index q = local[points.find(3 * faces[i] + k)];
+            uv[3 * i + k] = Complex(x(q, 0), x(q, 1));
         }
     clear();
     return true;
@@ -340,34 +343,30 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
     const Index np = static_cast<Index>(p.info.size());
     std::vector<std::vector<Index>> faces(np);
     std::vector<Index> first_border(np, kNoHalfedge);
-    bool any = false;
-    for (const PatchInfo& info : p.info) any = any || (info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles > 0);
-    if (!any) return p;
+    const auto folded_disk = [](const PatchInfo& info) {
+        return info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles > 0;
+    };
+    if (std::none_of(p.info.begin(), p.info.end(), folded_disk)) return p;
     for (Index f = 0; f < mesh.n_faces(); ++f) {
         const Index id = p.face_patch[f];
         HOLOFLOW_REQUIRE(id >= 0 && id < np, "face " + std::to_string(f) + " has no patch");
-        if (p.info[id].type != PatchInfo::Type::Disk || p.info[id].flipped_uv_triangles == 0) continue;
+        if (!folded_disk(p.info[id])) continue;
         faces[id].push_back(f);
         for (int k = 0; k < 3; ++k)
             if (first_border[id] == kNoHalfedge && on_border(mesh, border, 3 * f + k)) first_border[id] = 3 * f + k;
     }
     UnionFind points = patch_points(mesh, border);
     std::vector<Index> local(mesh.n_halfedges(), -1);
+    std::vector<Complex> uv;
     const std::vector<double> length = edge_lengths(mesh);
     for (Index id = 0; id < np; ++id) {
         PatchInfo& info = p.info[id];
         if (faces[id].empty() || first_border[id] == kNoHalfedge) continue;
-        std::vector<Complex> form_uv;
-        for (Index f : faces[id]) form_uv.insert(form_uv.end(), &p.corner_uv[3 * f], &p.corner_uv[3 * f] + 3);
-        if (!embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, local, p.corner_uv)) continue;
+        if (!embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, p.corner_uv, local, uv)) continue;
         Index flips = 0;
-        for (Index f : faces[id]) flips += flipped_uv(p.corner_uv[3 * f], p.corner_uv[3 * f + 1], p.corner_uv[3 * f + 2]);
-        if (flips >= info.flipped_uv_triangles) {  // rounding beat the theorem: keep the form's uv
-            for (std::size_t i = 0; i < faces[id].size(); ++i)
-                std::copy_n(&form_uv[3 * i], 3, &p.corner_uv[3 * faces[id][i]]);
-            continue;
-        }
-        info.repaired = true;
+        for (std::size_t i = 0; i < faces[id].size(); ++i) flips += flipped_uv(uv[3 * i], uv[3 * i + 1], uv[3 * i + 2]);
+        if (flips >= info.flipped_uv_triangles) continue;  // rounding beat the theorem: the form's uv stays
+        for (std::size_t i = 0; i < faces[id].size(); ++i) std::copy_n(&uv[3 * i], 3, &p.corner_uv[3 * faces[id][i]]);
         info.flipped_uv_triangles = flips;
         info.distortion_max = info.distortion_mean = info.rectangle_error = 0;
         Index finite = 0;

@@ -131,7 +131,7 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
         EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
         EXPECT_EQ(flipped(r), 0);
         for (const kernels::PatchInfo& p : r.patches.info) {
-            if (p.repaired) {
+            if (p.repaired()) {
                 EXPECT_GT(p.form_flipped_uv_triangles, 0);
                 EXPECT_LE(p.rectangle_error, kRepairedRectangleTol);
             } else {

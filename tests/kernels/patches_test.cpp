@@ -66,11 +66,11 @@ TEST(PatchRepair, FoldedDiskIsLaidOnItsRectangleWithNoFlip) {
     const Index flips = folded.info[0].flipped_uv_triangles;
     ASSERT_GT(flips, 0);
     EXPECT_EQ(folded.info[0].form_flipped_uv_triangles, flips);
-    EXPECT_FALSE(folded.info[0].repaired);
+    EXPECT_FALSE(folded.info[0].repaired());
 
     const Patches p = repair_folded_patches(s.mesh, border, folded);
     const PatchInfo& info = p.info[0];
-    EXPECT_TRUE(info.repaired);
+    EXPECT_TRUE(info.repaired());
     EXPECT_EQ(info.flipped_uv_triangles, 0);
     EXPECT_EQ(info.form_flipped_uv_triangles, flips);
     EXPECT_GT(smallest_relative_area(s.mesh, p, 0), 1e-6);
@@ -86,7 +86,9 @@ TEST(PatchRepair, FoldedDiskIsLaidOnItsRectangleWithNoFlip) {
             const Index v = s.mesh.F(f, k);
             const Complex z = point(s.mesh, v);
             const bool on_side = z.real() == 0 || z.real() == 2 || z.imag() == 0 || z.imag() == 1;
-            if (on_side) EXPECT_LE(std::abs(p.corner_uv[3 * f + k] - z), 2 * kBulge) << v;
+            if (on_side) {
+                EXPECT_LE(std::abs(p.corner_uv[3 * f + k] - z), 2 * kBulge) << v;
+            }
         }
 }
 
@@ -104,13 +106,14 @@ TEST(PatchRepair, OnlyFoldedPatchesChange) {
     ASSERT_EQ(before.info[1 - folded].flipped_uv_triangles, 0);
 
     const Patches after = repair_folded_patches(s.mesh, border, before);
-    EXPECT_TRUE(after.info[folded].repaired);
+    EXPECT_TRUE(after.info[folded].repaired());
     EXPECT_EQ(after.info[folded].flipped_uv_triangles, 0);
-    EXPECT_FALSE(after.info[1 - folded].repaired);
+    EXPECT_FALSE(after.info[1 - folded].repaired());
     EXPECT_EQ(after.face_patch, before.face_patch);
     for (Index f = 0; f < s.mesh.n_faces(); ++f)
-        if (before.face_patch[f] != folded)
+        if (before.face_patch[f] != folded) {
             for (int k = 0; k < 3; ++k) EXPECT_EQ(after.corner_uv[3 * f + k], before.corner_uv[3 * f + k]);
+        }
     EXPECT_EQ(after.info[1 - folded].rectangle_error, before.info[1 - folded].rectangle_error);
 }
 
@@ -131,7 +134,7 @@ TEST(PatchRepair, EarOnOneSideGetsAnArea) {
     const Patches folded = compute_patches(m, form_of(m, image), border);
     ASSERT_GT(folded.info[0].flipped_uv_triangles, 0);
     const Patches p = repair_folded_patches(m, border, folded);
-    EXPECT_TRUE(p.info[0].repaired);
+    EXPECT_TRUE(p.info[0].repaired());
     EXPECT_EQ(p.info[0].flipped_uv_triangles, 0);
     EXPECT_GT(smallest_relative_area(m, p, 0), 1e-12);
     EXPECT_LE(p.info[0].rectangle_error, kBulge);

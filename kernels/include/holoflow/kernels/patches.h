@@ -23,10 +23,11 @@ struct PatchInfo {
     double rectangle_error = 0;
     Index flipped_uv_triangles = 0;   //!< negative signed uv area beyond rounding
     double distortion_mean = 0, distortion_max = 0;  //!< conformal distortion (1 = conformal)
-    //! Its uv is a positive-weight embedding on the rectangle, not the form's integral, which
-    //! folded (see repair_folded_patches).
-    bool repaired = false;
     Index form_flipped_uv_triangles = 0;  //!< flipped triangles of the form's integral
+
+    //! Its uv is a positive-weight embedding on the rectangle, not the form's integral, which
+    //! folded (repair_folded_patches keeps a layout only when it has fewer flips).
+    bool repaired() const { return flipped_uv_triangles != form_flipped_uv_triangles; }
 };
 
 //! Patches of a cut mesh: faces joined across edges that are neither borders nor boundary.
