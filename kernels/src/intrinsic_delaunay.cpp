@@ -242,9 +242,6 @@ Eigen::MatrixXd carry_forms(const IntrinsicTriangulation& triangulation, const E
 
 IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::MatrixXd& forms,
                                           const IntrinsicDelaunayOptions& options) {
-    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(),
-                     "forms needs one row per edge (" + std::to_string(mesh.n_edges()) + ")");
-    HOLOFLOW_REQUIRE(forms.allFinite(), "forms has non-finite values");
     IntrinsicTriangulation result = intrinsic_delaunay(mesh, options);
     result.forms = carry_forms(result, forms);
     return result;
