@@ -1195,7 +1195,6 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
         HOLOFLOW_REQUIRE(r.vertex < mesh.n_vertices() && r.face < mesh.n_faces(), "region position out of range");
         HOLOFLOW_REQUIRE(!r.vertices.empty() || r.vertex >= 0 || r.face >= 0, "empty region");
     }
-    if (regions.empty()) return regularise_on(mesh, tau, regions);
     // Edge flips first: they repair what they can without losing a vertex. A face holding a
     // zero's point stays, the point is placed in it.
     std::vector<char> keep(mesh.n_faces(), 0);
