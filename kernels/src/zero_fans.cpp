@@ -71,6 +71,22 @@ bool segments_touch(Complex a, Complex b, Complex c, Complex d, double tol) {
     return true;
 }
 
+// Winding number of the closed polygon p around z (not on it), from the signed crossings of
+// the ray from z towards +x.
+int winding_number(const std::vector<Complex>& p, Complex z) {
+    int w = 0;
+    const std::size_t n = p.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const Complex a = p[i], b = p[(i + 1) % n];
+        if (a.imag() <= z.imag()) {
+            if (b.imag() > z.imag() && cross(b - a, z - a) > 0) ++w;
+        } else if (b.imag() <= z.imag() && cross(b - a, z - a) < 0) {
+            --w;
+        }
+    }
+    return w;
+}
+
 // Ear clipping of a simple counter-clockwise polygon; false when no strict ear is left.
 bool ear_clip(std::vector<Index> ids, const std::vector<Complex>& pos, std::vector<std::array<Index, 3>>& out) {
     std::vector<Complex> p(pos);
@@ -740,6 +756,9 @@ class Builder {
         for (Index i = 0; i < n && fan; ++i) fan = ccw(c.image, point(i), point(i + 1));
         const int search_cap = n > kLongChain ? 2 : kMaxSearches;
         if (!fan && !diagnosis && (n > kMaxSectorChain || searches >= search_cap)) return false;
+        // A closed chain must wind order + 1 times around the centre: counted with the signed
+        // crossings of a ray first (no atan2), so most candidates fail before the angles below.
+        if (!out.open && winding_number(pts, c.image) != order + 1) return false;
         // Unwrapped angles of the points around the centre.
         std::vector<double> theta(n + 1);
         theta[0] = 0;
