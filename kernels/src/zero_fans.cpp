@@ -500,6 +500,13 @@ class Builder {
     Complex corner_image(Index f, int k) const {
         return origin_[f] + chart_corner(along_, f, k);
     }
+    // The two developed images of an edge's tail differ by more than 1e-8 (|mine| + |edge|).
+    // Squared norms settle almost every edge (no hypot): |d| <= 1e-8 max(|mine|, |edge|) passes.
+    static bool sides_disagree(Complex mine, Complex theirs, Complex edge) {
+        const double gap2 = std::norm(mine - theirs);
+        if (gap2 <= 1e-16 * std::max(std::norm(mine), std::norm(edge))) return false;
+        return std::abs(mine - theirs) > 1e-8 * (std::abs(mine) + std::abs(edge));
+    }
     bool is_chain(Index v) const { return chain_stamp_[v] == generation_; }
 
     bool develop(Group& group, Retriangulation& out, Diagnosis& diagnosis) {
@@ -537,7 +544,7 @@ class Builder {
                     continue;
                 }
                 const Complex mine = corner_image(f, k), theirs = corner_image(MeshView::face(t), (t % 3 + 1) % 3);
-                if (std::abs(mine - theirs) > 1e-8 * (std::abs(mine) + std::abs(along_[h]))) {
+                if (sides_disagree(mine, theirs, along_[h])) {
                     cut_[h] = 1;
                     ++cuts;
                     border.push_back(h);
