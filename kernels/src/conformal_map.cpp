@@ -90,8 +90,8 @@ std::vector<double> edge_lengths(const MeshView& mesh) {
 
 double triangle_distortion(double a, double b, double c, Complex t0, Complex t2) {
     // Source triangle laid out from its lengths: corner 0 at 0, corner 1 on the x axis.
-    const double x2 = (a * a + c * c - b * b) / (2 * a);
-    const double y2 = std::sqrt(std::max(0.0, c * c - x2 * x2));
+    const Complex corner2 = apex_from_lengths(a, c, b);
+    const double x2 = corner2.real(), y2 = corner2.imag();
     const double scale = std::max({std::norm(t0), std::norm(t2 - t0), std::norm(t2)});
     if (!(std::abs(0.5 * cross(t0, t2)) > 1e-14 * scale) || !(y2 > 0)) return std::numeric_limits<double>::infinity();
     Eigen::Matrix2d S;  // source edge vectors corner0->corner1, corner0->corner2 as columns

@@ -28,9 +28,14 @@ bool flipped_uv(Complex a, Complex b, Complex c) {
     return cross(b - a, c - a) < -kFlipTol * scale;
 }
 
-// Distance of a border point from the nearest side of the rectangle [0, w] x [0, h].
-double off_rectangle(Complex z, double w, double h) {
-    return std::min({std::abs(z.real()), std::abs(w - z.real()), std::abs(z.imag()), std::abs(h - z.imag())});
+// Distance of a border point from the nearest side of its patch's rectangle [0, w] x [0, h],
+// over the longer side (0 for a patch with no extent): what rectangle_error takes the max of.
+double rectangle_gap(const PatchInfo& info, Complex z) {
+    const double size = std::max(info.width, info.height);
+    if (!(size > 0)) return 0;
+    return std::min({std::abs(z.real()), std::abs(info.width - z.real()), std::abs(z.imag()),
+                     std::abs(info.height - z.imag())}) /
+           size;
 }
 
 bool on_border(const MeshView& mesh, std::span<const char> border, Index h) {
@@ -328,8 +333,7 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     for (Index h = 0; h < mesh.n_halfedges(); ++h) {
         if (!on_border(mesh, border, h)) continue;
         PatchInfo& info = p.info[p.face_patch[MeshView::face(h)]];
-        const double size = std::max(info.width, info.height);
-        if (size > 0) info.rectangle_error = std::max(info.rectangle_error, off_rectangle(p.corner_uv[h], info.width, info.height) / size);
+        info.rectangle_error = std::max(info.rectangle_error, rectangle_gap(info, p.corner_uv[h]));
     }
     for (PatchInfo& info : p.info) info.form_flipped_uv_triangles = info.flipped_uv_triangles;
     return p;
@@ -370,7 +374,6 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
         info.flipped_uv_triangles = flips;
         info.distortion_max = info.distortion_mean = info.rectangle_error = 0;
         Index finite = 0;
-        const double size = std::max(info.width, info.height);
         for (Index f : faces[id]) {
             const Complex a = p.corner_uv[3 * f], b = p.corner_uv[3 * f + 1], c = p.corner_uv[3 * f + 2];
             const double d = triangle_distortion(length[mesh.halfedge_edge[3 * f]], length[mesh.halfedge_edge[3 * f + 1]],
@@ -378,7 +381,7 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
             if (std::isfinite(d)) info.distortion_mean += d, info.distortion_max = std::max(info.distortion_max, d), ++finite;
             for (int k = 0; k < 3; ++k)
                 if (on_border(mesh, border, 3 * f + k))
-                    info.rectangle_error = std::max(info.rectangle_error, off_rectangle(p.corner_uv[3 * f + k], info.width, info.height) / size);
+                    info.rectangle_error = std::max(info.rectangle_error, rectangle_gap(info, p.corner_uv[3 * f + k]));
         }
         if (finite > 0) info.distortion_mean /= static_cast<double>(finite);
     }

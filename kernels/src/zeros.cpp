@@ -370,10 +370,9 @@ ZeroPoint refine_zero(const MeshView& mesh, const Eigen::VectorXcd& tau, Index v
         const double lb = (mesh.V.row(w) - mesh.V.row(mesh.head(t))).norm();
         const double d = std::abs(b - a);
         if (!(d > 0)) return out;
-        const double x = (la * la - lb * lb + d * d) / (2 * d);
         pos[kt] = a;
         pos[(kt + 1) % 3] = b;
-        pos[(kt + 2) % 3] = a + (b - a) / d * Complex(x, std::sqrt(std::max(la * la - x * x, 0.0)));
+        pos[(kt + 2) % 3] = a + (b - a) / d * apex_from_lengths(d, la, lb);
         image[kt] = image_a;
         image[(kt + 1) % 3] = image_b;
         image[(kt + 2) % 3] = image_a - form_along(mesh, tau, MeshView::prev(t));

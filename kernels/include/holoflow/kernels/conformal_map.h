@@ -1,5 +1,7 @@
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <complex>
 #include <span>
 #include <vector>
@@ -25,6 +27,14 @@ inline std::complex<double> chart_corner(std::span<const std::complex<double>> a
 //! Cross product of two plane vectors given as complex numbers (twice their triangle's signed area).
 inline double cross(std::complex<double> a, std::complex<double> b) {
     return a.real() * b.imag() - a.imag() * b.real();
+}
+
+//! Third corner of a triangle laid flat from its edge lengths: the base runs from 0 to `base` on
+//! the real axis, the corner is `from_tail` from 0 and `from_head` from `base`, on the positive
+//! side (on the axis when the lengths cannot close a triangle).
+inline std::complex<double> apex_from_lengths(double base, double from_tail, double from_head) {
+    const double x = (base * base + from_tail * from_tail - from_head * from_head) / (2 * base);
+    return {x, std::sqrt(std::max(0.0, from_tail * from_tail - x * x))};
 }
 
 //! A holomorphic 1-form integrated over the fundamental domain.
