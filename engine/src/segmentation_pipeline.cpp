@@ -17,6 +17,9 @@ using kernels::Trajectory;
 using kernels::TrajectoryFamily;
 
 constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
+// Where a cylinder's border is no straight loop a transversal may only cut a disk off it; the
+// cylinder left is opened in the next round.
+constexpr int kCylinderRounds = 4;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -206,11 +209,25 @@ void cut(SegmentationWork& work) {
             if (r.conformal.homology.cut_edge[surface.halfedge_edge[surface_h]]) extra_border[e] = kHomologyCut;
         }
     }
-    r.cut = kernels::cut_along_trajectories(r.regular.mesh, r.regular.tau, r.trajectories, extra_border);
-    std::vector<char> border(r.cut.mesh.n_edges(), 0);
-    for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) border[e] = r.cut.edge_trajectory[e] != kernels::kNoBorder;
+    std::vector<char> border;
+    const auto cut_and_fill = [&] {
+        r.cut = kernels::cut_along_trajectories(r.regular.mesh, r.regular.tau, r.trajectories, extra_border);
+        border.assign(r.cut.mesh.n_edges(), 0);
+        for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) border[e] = r.cut.edge_trajectory[e] != kernels::kNoBorder;
+        r.patches = kernels::compute_patches(r.cut.mesh, r.cut.tau, border);
+    };
+    cut_and_fill();
+    // Layout mode promises rectangles. A cylinder (closed curves that no critical trajectory
+    // crosses) is opened by the transversal through a vertex inside it, and the cut redone.
+    for (int round = 0; round < kCylinderRounds && work.options.mode == SegmentMode::Layout && !r.is_torus(); ++round) {
+        const std::vector<Trajectory> transversals = kernels::cylinder_transversals(
+            r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories, r.cut, border, r.patches);
+        if (transversals.empty()) break;
+        r.transversals += static_cast<Index>(transversals.size());
+        r.trajectories.insert(r.trajectories.end(), transversals.begin(), transversals.end());
+        cut_and_fill();
+    }
     clock.lap("cutting");
-    r.patches = kernels::compute_patches(r.cut.mesh, r.cut.tau, border);
     // Where the form's uv folds (zero regions the fans could not regularise), a valid uv on
     // the same rectangle instead; reported per patch.
     r.patches = kernels::repair_folded_patches(r.cut.mesh, border, std::move(r.patches));
@@ -328,6 +345,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
           {"edge_flips", r.regular.edge_flips},
           {"flipped_faces", r.regular.flipped_faces}}},
         {"trajectories", r.trajectories.size()},
+        {"transversals", r.transversals},
         {"trajectory_ends", ends},
         {"unfinished_trajectories", unfinished},
         {"skipped_segments", r.cut.skipped_segments},

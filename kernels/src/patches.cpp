@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <tuple>
 
 #include <Eigen/Geometry>
 
@@ -22,6 +23,7 @@ constexpr double kFlipTol = 1e-12;  // signed uv area below -tol * (longest edge
 
 constexpr double kSideBulge = 1e-4;       // repaired borders: bulge of a side over its length
 constexpr Index kCornerCandidates = 32;  // border points tried per rectangle corner
+constexpr Index kOpeningCandidates = 8;  // start vertices tried per cylinder
 
 bool flipped_uv(Complex a, Complex b, Complex c) {
     const double scale = std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)});
@@ -233,6 +235,62 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
     return true;
 }
 
+// A start vertex for a cylinder's transversal.
+struct Opening {
+    Index patch;
+    double off_middle;  // distance of its uv from the middle of the patch across the core
+    Index vertex;
+    bool vertical;      // the core period is mostly real: iso-u lines cross it
+};
+
+// Per cylinder patch, the eligible vertices strictly inside it (every edge at it an interior,
+// non-border edge of the patch), nearest the middle across the core first, ties to the smaller
+// id; kOpeningCandidates at most.
+std::vector<Opening> cylinder_openings(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border,
+                                       const Patches& patches, std::span<const char> eligible) {
+    const Index np = static_cast<Index>(patches.info.size());
+    const auto is_cylinder = [&](Index id) { return patches.info[id].type == PatchInfo::Type::Cylinder; };
+    // The core period of each cylinder: the form along one of its border loops.
+    std::vector<Complex> period(np, 0);
+    std::vector<char> walked(np, 0);
+    for (Index h0 = 0; h0 < mesh.n_halfedges(); ++h0) {
+        const Index id = patches.face_patch[MeshView::face(h0)];
+        if (walked[id] || !is_cylinder(id) || !on_border(mesh, border, h0)) continue;
+        walked[id] = 1;
+        Index h = h0;
+        do {
+            period[id] += form_along(mesh, tau, h);
+            h = next_on_border(mesh, border, h);
+        } while (h != h0);
+    }
+    std::vector<Opening> out;
+    for (Index v = 0; v < mesh.n_vertices(); ++v) {
+        const Index first = mesh.vertex_halfedge[v];
+        if (!eligible[v] || first == kNoHalfedge) continue;
+        const Index id = patches.face_patch[MeshView::face(first)];
+        if (!is_cylinder(id)) continue;
+        bool inside = true;
+        Index h = first;
+        do {
+            inside = !on_border(mesh, border, h) && patches.face_patch[MeshView::face(h)] == id;
+            h = mesh.rotate(h);
+        } while (inside && h != first && h != kNoHalfedge);
+        if (!inside || h == kNoHalfedge) continue;
+        const PatchInfo& info = patches.info[id];
+        const bool vertical = std::abs(period[id].real()) >= std::abs(period[id].imag());
+        const Complex uv = patches.corner_uv[first];
+        const double off_middle = vertical ? std::abs(uv.imag() - info.height / 2) : std::abs(uv.real() - info.width / 2);
+        out.push_back({id, off_middle, v, vertical});
+    }
+    std::sort(out.begin(), out.end(), [](const Opening& a, const Opening& b) {
+        return std::tie(a.patch, a.off_middle, a.vertex) < std::tie(b.patch, b.off_middle, b.vertex);
+    });
+    std::vector<Opening> kept;
+    for (std::size_t i = 0; i < out.size(); ++i)
+        if (i < kOpeningCandidates || out[i - kOpeningCandidates].patch != out[i].patch) kept.push_back(out[i]);
+    return kept;
+}
+
 }  // namespace
 
 Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border) {
@@ -386,6 +444,95 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
         if (finite > 0) info.distortion_mean /= static_cast<double>(finite);
     }
     return p;
+}
+
+std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                              std::span<const Index> zero_vertices,
+                                              std::span<const Trajectory> trajectories, const CutMesh& cut,
+                                              std::span<const char> border, const Patches& patches) {
+    const MeshView& cm = cut.mesh;
+    HOLOFLOW_REQUIRE(static_cast<Index>(border.size()) == cm.n_edges() &&
+                         static_cast<Index>(patches.face_patch.size()) == cm.n_faces() &&
+                         static_cast<Index>(cut.original_face.size()) == cm.n_faces(),
+                     "cut, border flags and patches must belong together");
+    std::vector<char> eligible(cm.n_vertices(), 0);
+    for (Index v = 0; v < cm.n_vertices(); ++v) eligible[v] = cut.original_vertex[v] >= 0;
+    for (Index z : zero_vertices)
+        if (z >= 0 && z < cm.n_vertices()) eligible[z] = 0;  // the cut keeps the traced vertex ids
+    const std::vector<Opening> openings = cylinder_openings(cm, cut.tau, border, patches, eligible);
+    if (openings.empty()) return {};
+
+    // Border loops of the cylinders, and their halfedges by traced face and by tail vertex.
+    std::vector<Index> loop_of(cm.n_halfedges(), -1);
+    std::vector<std::pair<Index, Index>> by_face, by_tail;
+    Index loops = 0;
+    for (Index h0 = 0; h0 < cm.n_halfedges(); ++h0) {
+        if (loop_of[h0] >= 0 || !on_border(cm, border, h0) ||
+            patches.info[patches.face_patch[MeshView::face(h0)]].type != PatchInfo::Type::Cylinder)
+            continue;
+        for (Index h = h0; loop_of[h] < 0; h = next_on_border(cm, border, h)) {
+            loop_of[h] = loops;
+            by_face.emplace_back(cut.original_face[MeshView::face(h)], h);
+            by_tail.emplace_back(cm.tail(h), h);
+        }
+        ++loops;
+    }
+    std::sort(by_face.begin(), by_face.end());
+    std::sort(by_tail.begin(), by_tail.end());
+    // The border loop of `patch` a curve ends on; -1 if none or not one alone.
+    const auto end_loop = [&](const Trajectory& t, Index patch) {
+        Index found = -1;
+        bool unique = true;
+        const auto consider = [&](Index h) {
+            if (patches.face_patch[MeshView::face(h)] != patch) return;
+            if (found >= 0 && found != loop_of[h]) unique = false;
+            found = loop_of[h];
+        };
+        const auto range = [](const std::vector<std::pair<Index, Index>>& list, Index key) {
+            return std::equal_range(list.begin(), list.end(), std::pair{key, Index{-1}},
+                                    [](const auto& a, const auto& b) { return a.first < b.first; });
+        };
+        if (t.end_vertex >= 0) {
+            for (auto [it, end] = range(by_tail, t.end_vertex); it != end; ++it) consider(it->second);
+        } else if (t.end == Trajectory::End::Collision) {
+            for (auto [it, end] = range(by_face, t.segment_face(mesh, t.n_segments() - 1)); it != end; ++it)
+                if (cut.edge_trajectory[cm.halfedge_edge[it->second]] == t.blocker) consider(it->second);
+        } else if (t.end == Trajectory::End::Boundary && !t.crossings.empty()) {
+            for (auto [it, end] = range(by_face, MeshView::face(t.crossings.back().halfedge)); it != end; ++it)
+                if (cm.twin[it->second] == kNoHalfedge) consider(it->second);
+        }
+        return unique ? found : Index{-1};
+    };
+
+    std::vector<TransversalStart> starts;
+    for (const Opening& o : openings)
+        starts.push_back({cut.original_vertex[o.vertex], o.vertical ? TrajectoryFamily::Vertical : TrajectoryFamily::Horizontal});
+    const std::vector<Trajectory> traced = trace_transversals(mesh, tau, zero_vertices, starts, trajectories);
+    // Per cylinder, the first start with two curves that run from one border loop to the
+    // other, else the first with two that end on one loop (they cut a disk off the cylinder).
+    // A start at a fold of the form sends more than two; a pair of them is a cut as well.
+    std::vector<Trajectory> out;
+    for (std::size_t i = 0; i < openings.size();) {
+        const Index patch = openings[i].patch;
+        std::array<const Trajectory*, 2> across{}, off{};
+        for (; i < openings.size() && openings[i].patch == patch; ++i) {
+            const Index v = cut.original_vertex[openings[i].vertex];
+            std::vector<std::pair<const Trajectory*, Index>> curves;  // with the loop each ends on
+            for (const Trajectory& t : traced)
+                if (t.start_vertex == v) curves.emplace_back(&t, end_loop(t, patch));
+            for (std::size_t a = 0; a < curves.size(); ++a)
+                for (std::size_t b = a + 1; b < curves.size(); ++b) {
+                    if (curves[a].second < 0 || curves[b].second < 0) continue;
+                    auto& slot = curves[a].second != curves[b].second ? across : off;
+                    if (!slot[0]) slot = {curves[a].first, curves[b].first};
+                }
+            if (across[0]) break;
+        }
+        while (i < openings.size() && openings[i].patch == patch) ++i;
+        const auto& chosen = across[0] ? across : off;
+        if (chosen[0]) out.insert(out.end(), {*chosen[0], *chosen[1]});
+    }
+    return out;
 }
 
 FlowComplex flow_complex(const MeshView& mesh, std::span<const Index> edge_label,

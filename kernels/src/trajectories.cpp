@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <optional>
 #include <tuple>
 
 #include "holoflow/kernels/conformal_map.h"
@@ -166,6 +167,72 @@ struct Segment {
     bool from_vertex, to_vertex;  // starts at its zero / ends at a vertex
 };
 
+// Segment j of trajectory `tr` (id i); a last segment ends at its vertex or collision point.
+Segment trajectory_segment(const MeshView& mesh, const Tracer& tracer, const Trajectory& tr, Index i, Index j) {
+    const auto corner_of = [&](Index f, Index v) {
+        for (int k = 0; k < 3; ++k)
+            if (mesh.F(f, k) == v) return k;
+        return 0;
+    };
+    const Index f = tr.segment_face(mesh, j);
+    Segment s{i, j, f, {}, {}, 0, j == 0, false};
+    s.from = j == 0 ? tracer.corner_image(f, corner_of(f, tr.start_vertex)) : tracer.crossing_image(f, tr.crossings[j - 1]);
+    s.length_from = j == 0 ? 0 : tr.crossings[j - 1].length;
+    if (j < static_cast<Index>(tr.crossings.size())) {
+        s.to = tracer.crossing_image(f, tr.crossings[j]);
+    } else if (tr.end == Trajectory::End::Collision) {
+        const auto& b = tr.end_barycentric;
+        s.to = b[1] * tracer.corner_image(f, 1) + b[2] * tracer.corner_image(f, 2);
+    } else {
+        s.to = tracer.corner_image(f, corner_of(f, tr.end_vertex));
+        s.to_vertex = true;
+    }
+    return s;
+}
+
+// Where segment p (of family `p_family`) meets segment q of the other family in their face, with
+// the length each curve has travelled to get there.
+struct Meeting {
+    Complex point;
+    double at_p, at_q;
+};
+std::optional<Meeting> meet(const Segment& p, const Segment& q, TrajectoryFamily p_family) {
+    const bool p_vertical = p_family == TrajectoryFamily::Vertical;
+    const Segment& vert = p_vertical ? p : q;
+    const Segment& horz = p_vertical ? q : p;
+    const double eps = 1e-12 * (std::abs(vert.to - vert.from) + std::abs(horz.to - horz.from) + std::abs(vert.from) +
+                                std::abs(horz.from));
+    const double u = vert.from.real(), v = horz.from.imag();
+    if (v < std::min(vert.from.imag(), vert.to.imag()) - eps || v > std::max(vert.from.imag(), vert.to.imag()) + eps ||
+        u < std::min(horz.from.real(), horz.to.real()) - eps || u > std::max(horz.from.real(), horz.to.real()) + eps)
+        return std::nullopt;
+    const Complex point(u, v);
+    // Meeting at a zero (a shared start, or an end at a vertex) is not a collision.
+    for (const Segment* s : {&vert, &horz})
+        if ((s->from_vertex && std::abs(point - s->from) <= eps) || (s->to_vertex && std::abs(point - s->to) <= eps))
+            return std::nullopt;
+    const double at_vert = vert.length_from + std::abs(v - vert.from.imag());
+    const double at_horz = horz.length_from + std::abs(u - horz.from.real());
+    return Meeting{point, p_vertical ? at_vert : at_horz, p_vertical ? at_horz : at_vert};
+}
+
+// Ends `tr` in its segment `segment` (face `face`) at `point`, reached at `length`, on segment
+// `blocker_segment` of trajectory `blocker`, which got there at `blocker_length`.
+void end_at_collision(const Tracer& tracer, Trajectory& tr, Index segment, double length, Index blocker,
+                      Index blocker_segment, double blocker_length, Index face, Complex point) {
+    tr.crossings.resize(segment);
+    tr.end = Trajectory::End::Collision;
+    tr.end_vertex = -1;
+    tr.blocker = blocker;
+    tr.blocker_segment = blocker_segment;
+    tr.blocker_length = blocker_length;
+    tr.length = length;
+    const Complex c1 = tracer.corner_image(face, 1), c2 = tracer.corner_image(face, 2);
+    const double area = cross(c1, c2);
+    const double b1 = cross(point, c2) / area, b2 = cross(c1, point) / area;
+    tr.end_barycentric = {1 - b1 - b2, b1, b2};
+}
+
 struct Event {
     double late, early;
     Index stopped, blocker, stopped_segment, blocker_segment, face;
@@ -271,47 +338,14 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
     std::vector<Event> pending;
     std::vector<double> stop(n, std::numeric_limits<double>::infinity());
     std::vector<Index> next_segment(n, 0);
-    const auto corner_of = [&](Index f, Index v) {
-        for (int k = 0; k < 3; ++k)
-            if (mesh.F(f, k) == v) return k;
-        return 0;
-    };
-    const auto segment = [&](Index i, Index j) {
-        const Trajectory& tr = out[i];
-        const Index f = tr.segment_face(mesh, j);
-        Segment s{i, j, f, {}, {}, 0, j == 0, false};
-        s.from = j == 0 ? tracer.corner_image(f, corner_of(f, tr.start_vertex))
-                        : tracer.crossing_image(f, tr.crossings[j - 1]);
-        s.length_from = j == 0 ? 0 : tr.crossings[j - 1].length;
-        if (j < static_cast<Index>(tr.crossings.size())) {
-            s.to = tracer.crossing_image(f, tr.crossings[j]);
-        } else {
-            s.to = tracer.corner_image(f, corner_of(f, tr.end_vertex));
-            s.to_vertex = true;
-        }
-        return s;
-    };
     const auto intersect = [&](const Segment& p, const Segment& q, std::vector<Event>& events) {
-        const Segment& vert = out[p.trajectory].family == TrajectoryFamily::Vertical ? p : q;
-        const Segment& horz = &vert == &p ? q : p;
-        const double eps = 1e-12 * (std::abs(vert.to - vert.from) + std::abs(horz.to - horz.from) +
-                                    std::abs(vert.from) + std::abs(horz.from));
-        const double u = vert.from.real(), v = horz.from.imag();
-        if (v < std::min(vert.from.imag(), vert.to.imag()) - eps || v > std::max(vert.from.imag(), vert.to.imag()) + eps ||
-            u < std::min(horz.from.real(), horz.to.real()) - eps || u > std::max(horz.from.real(), horz.to.real()) + eps)
-            return;
-        const Complex point(u, v);
-        // Meeting at a zero (a shared start, or an end at a vertex) is not a collision.
-        for (const Segment* s : {&vert, &horz})
-            if ((s->from_vertex && std::abs(point - s->from) <= eps) || (s->to_vertex && std::abs(point - s->to) <= eps))
-                return;
-        const double at_vert = vert.length_from + std::abs(v - vert.from.imag());
-        const double at_horz = horz.length_from + std::abs(u - horz.from.real());
-        const bool vert_later = at_vert > at_horz || (at_vert == at_horz && vert.trajectory > horz.trajectory);
-        const Segment& late = vert_later ? vert : horz;
-        const Segment& early = vert_later ? horz : vert;
-        events.push_back({std::max(at_vert, at_horz), std::min(at_vert, at_horz), late.trajectory, early.trajectory,
-                          late.index, early.index, late.face, point});
+        const std::optional<Meeting> m = meet(p, q, out[p.trajectory].family);
+        if (!m) return;
+        const bool p_later = m->at_p > m->at_q || (m->at_p == m->at_q && p.trajectory > q.trajectory);
+        const Segment& late = p_later ? p : q;
+        const Segment& early = p_later ? q : p;
+        events.push_back({std::max(m->at_p, m->at_q), std::min(m->at_p, m->at_q), late.trajectory, early.trajectory,
+                          late.index, early.index, late.face, m->point});
     };
     const auto decide = [&](double until) {
         std::sort(pending.begin(), pending.end());
@@ -325,17 +359,8 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
             Trajectory& tr = out[e.stopped];
             if (e.late > tr.length) continue;  // ended (zero, boundary) before getting there
             stop[e.stopped] = e.late;
-            tr.crossings.resize(e.stopped_segment);
-            tr.end = Trajectory::End::Collision;
-            tr.end_vertex = -1;
-            tr.blocker = e.blocker;
-            tr.blocker_segment = e.blocker_segment;
-            tr.blocker_length = e.early;
-            tr.length = e.late;
-            const Complex c1 = tracer.corner_image(e.face, 1), c2 = tracer.corner_image(e.face, 2);
-            const double area = cross(c1, c2);
-            const double b1 = cross(e.point, c2) / area, b2 = cross(c1, e.point) / area;
-            tr.end_barycentric = {1 - b1 - b2, b1, b2};
+            end_at_collision(tracer, tr, e.stopped_segment, e.late, e.blocker, e.blocker_segment, e.early, e.face,
+                             e.point);
             walkers[e.stopped].done = true;
         }
         pending.swap(later);
@@ -349,7 +374,7 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
             if (stop[i] < std::numeric_limits<double>::infinity()) continue;
             const Index segments = out[i].n_segments();
             for (Index j = next_segment[i]; j < segments; ++j) {
-                const Segment s = segment(i, j);
+                const Segment s = trajectory_segment(mesh, tracer, out[i], i, j);
                 for (const Segment& q : bucket[s.face])
                     if (out[q.trajectory].family != out[i].family) intersect(s, q, pending);
                 bucket[s.face].push_back(s);
@@ -364,6 +389,62 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
     }
     drop_reversed_duplicates(mesh, out);
     return out;
+}
+
+std::vector<Trajectory> trace_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                           std::span<const Index> zero_vertices,
+                                           std::span<const TransversalStart> starts,
+                                           std::span<const Trajectory> earlier, const TraceOptions& options) {
+    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
+    for (Index v : zero_vertices) HOLOFLOW_REQUIRE(v >= 0 && v < mesh.n_vertices(), "zero vertex out of range");
+    for (const TransversalStart& s : starts)
+        HOLOFLOW_REQUIRE(s.vertex >= 0 && s.vertex < mesh.n_vertices(), "transversal start out of range");
+    const Tracer tracer(mesh, tau, zero_vertices, options);
+    std::vector<Trajectory> out;
+    std::vector<Walker> walkers;
+    for (const TransversalStart& s : starts) tracer.start(s.vertex, s.family, out, walkers);
+    if (!(tracer.unit() > 0)) return {};
+    par::for_each_index(out.size(), true, [&](std::size_t i) { tracer.advance(out[i], walkers[i], tracer.cap() * 2); });
+
+    // The earlier curves' segments in the faces the new ones cross.
+    std::vector<char> visited(mesh.n_faces(), 0);
+    for (const Trajectory& tr : out)
+        for (Index j = 0; j < tr.n_segments(); ++j) visited[tr.segment_face(mesh, j)] = 1;
+    std::vector<std::vector<Segment>> bucket(mesh.n_faces());
+    for (Index i = 0; i < static_cast<Index>(earlier.size()); ++i)
+        for (Index j = 0; j < earlier[i].n_segments(); ++j)
+            if (visited[earlier[i].segment_face(mesh, j)])
+                bucket[earlier[i].segment_face(mesh, j)].push_back(trajectory_segment(mesh, tracer, earlier[i], i, j));
+
+    // Each new curve stops at its first meeting with an earlier one of the other family.
+    for (Index k = 0; k < static_cast<Index>(out.size()); ++k) {
+        Trajectory& tr = out[k];
+        const Index segments = tr.n_segments();
+        for (Index j = 0; j < segments; ++j) {
+            const Segment s = trajectory_segment(mesh, tracer, tr, k, j);
+            std::optional<Meeting> first;
+            const Segment* blocker = nullptr;
+            for (const Segment& q : bucket[s.face]) {
+                if (earlier[q.trajectory].family == tr.family) continue;
+                const std::optional<Meeting> m = meet(s, q, tr.family);
+                if (m && (!first || std::tie(m->at_p, q.trajectory) < std::tie(first->at_p, blocker->trajectory)))
+                    first = m, blocker = &q;
+            }
+            if (first) {
+                end_at_collision(tracer, tr, j, first->at_p, blocker->trajectory, blocker->index, first->at_q, s.face,
+                                 first->point);
+                break;
+            }
+        }
+    }
+    // A start is kept with all its curves or not at all: a slit from one side opens nothing.
+    std::vector<char> unfinished(mesh.n_vertices(), 0);
+    for (const Trajectory& tr : out)
+        if (tr.end == Trajectory::End::LengthCap) unfinished[tr.start_vertex] = 1;
+    std::vector<Trajectory> kept;
+    for (Trajectory& tr : out)
+        if (!unfinished[tr.start_vertex]) kept.push_back(std::move(tr));
+    return kept;
 }
 
 }  // namespace holoflow::kernels

@@ -1,5 +1,6 @@
 #include "holoflow/engine/segmentation_pipeline.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -141,6 +142,35 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
             EXPECT_TRUE(std::isfinite(p.distortion_max));
         }
     }
+}
+
+// oblong (around a sliced tip) and cheese (where its form folds) had a cylinder no critical
+// trajectory crosses; layout mode opens each with transversals, so every patch is a disk. In
+// vertical mode (the paper's) oblong stays one cylinder.
+TEST(Segmentation, LayoutOpensCylindersWithTransversals) {
+    for (const char* name : {"oblong", "cheese"}) {
+        SCOPED_TRACE(name);
+        const SegmentationResult r = segment(*test::corpus_mesh(name));
+        EXPECT_GT(r.transversals, 0);
+        EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+        EXPECT_EQ(flipped(r), 0);
+        EXPECT_EQ(unfinished(r), 0);
+        EXPECT_EQ(r.cut.skipped_segments, 0);
+        const Index first = static_cast<Index>(r.trajectories.size()) - r.transversals;
+        for (Index i = first; i < static_cast<Index>(r.trajectories.size()); ++i) {
+            const kernels::Trajectory& t = r.trajectories[i];
+            EXPECT_TRUE(std::find(r.zero_vertices.begin(), r.zero_vertices.end(), t.start_vertex) ==
+                        r.zero_vertices.end());
+            if (t.end == kernels::Trajectory::End::Collision) EXPECT_LT(t.blocker, i);
+        }
+    }
+    SegmentOptions vertical;
+    vertical.mode = SegmentMode::Vertical;
+    const SegmentationResult v = segment(*test::corpus_mesh("oblong"), vertical);
+    EXPECT_EQ(v.transversals, 0);
+    EXPECT_EQ(count_type(v, kernels::PatchInfo::Type::Cylinder), 1);
+    // Well-shaped meshes have no cylinder to open.
+    EXPECT_EQ(segment(*test::corpus_mesh("eight")).transversals, 0);
 }
 
 TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {

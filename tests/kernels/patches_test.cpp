@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <complex>
+#include <numbers>
 #include <vector>
 
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/flow_cut.h"
 #include "holoflow/kernels/shapes.h"
 #include "support/plane_zeros.h"
 
@@ -50,6 +52,56 @@ double smallest_relative_area(const MeshView& m, const Patches& p, Index patch) 
         smallest = std::min(smallest, cross(b - a, c - a) / std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)}));
     }
     return smallest;
+}
+
+// A tube with a form whose period around it is real: one cylinder patch. The transversal
+// through a vertex at mid-height (an iso-u line; the form is sheared so that it meets no other
+// vertex) opens it into a disk whose uv is exactly the rectangle period x height.
+TEST(CylinderTransversals, TubeOpensIntoItsRectangle) {
+    constexpr int kAround = 24, kAlong = 6;
+    constexpr double kHeight = 2, kShear = 0.37;
+    const MeshView m = shapes::cylinder(1, kHeight, kAround, kAlong);
+    const double chord = 2 * std::sin(std::numbers::pi / kAround);
+    Eigen::VectorXcd tau(m.n_edges());
+    for (Index e = 0; e < m.n_edges(); ++e) {
+        const Index a = m.E(e, 0), b = m.E(e, 1);
+        Index steps = (b % kAround - a % kAround + kAround) % kAround;  // around, wrapped to -1, 0, 1
+        if (steps > kAround / 2) steps -= kAround;
+        const double rise = m.V(b, 2) - m.V(a, 2);
+        tau(e) = Complex(chord * static_cast<double>(steps) + kShear * rise, rise);
+    }
+    const auto fill = [](const CutMesh& cut) {
+        std::vector<char> border(cut.mesh.n_edges(), 0);
+        for (Index e = 0; e < cut.mesh.n_edges(); ++e) border[e] = cut.edge_trajectory[e] != kNoBorder;
+        return std::pair{border, compute_patches(cut.mesh, cut.tau, border)};
+    };
+    const CutMesh uncut = cut_along_trajectories(m, tau, {});
+    const auto [no_border, before] = fill(uncut);
+    ASSERT_EQ(before.info.size(), 1u);
+    ASSERT_EQ(before.info[0].type, PatchInfo::Type::Cylinder);
+
+    const std::vector<Trajectory> transversal = cylinder_transversals(m, tau, {}, {}, uncut, no_border, before);
+    ASSERT_EQ(transversal.size(), 2u);
+    for (const Trajectory& t : transversal) {
+        EXPECT_EQ(t.start_vertex, kAlong / 2 * kAround);  // the first vertex of the middle ring
+        EXPECT_EQ(t.family, TrajectoryFamily::Vertical);
+        EXPECT_EQ(t.end, Trajectory::End::Boundary);
+    }
+    const auto [border, after] = fill(cut_along_trajectories(m, tau, transversal));
+    ASSERT_EQ(after.info.size(), 1u);
+    const PatchInfo& disk = after.info[0];
+    EXPECT_EQ(disk.type, PatchInfo::Type::Disk);
+    EXPECT_EQ(disk.flipped_uv_triangles, 0);
+    EXPECT_NEAR(disk.width, kAround * chord, 1e-12);
+    EXPECT_NEAR(disk.height, kHeight, 1e-12);
+    EXPECT_LT(disk.rectangle_error, 1e-12);
+
+    // Zeros are no starts: with every vertex of the middle ring a zero, a ring next to it is taken.
+    std::vector<Index> ring;
+    for (Index i = 0; i < kAround; ++i) ring.push_back(kAlong / 2 * kAround + i);
+    const std::vector<Trajectory> next = cylinder_transversals(m, tau, ring, {}, uncut, no_border, before);
+    ASSERT_EQ(next.size(), 2u);
+    EXPECT_EQ(std::abs(next[0].start_vertex / kAround - kAlong / 2), 1);
 }
 
 TEST(PatchRepair, FoldedDiskIsLaidOnItsRectangleWithNoFlip) {

@@ -9,6 +9,7 @@
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/flow_cut.h"
+#include "holoflow/kernels/patches.h"
 #include "holoflow/kernels/zero_fans.h"
 #include "support/plane_zeros.h"
 #include "support/test_support.h"
@@ -148,6 +149,60 @@ TEST(Trajectories, CopyStoppedOnTheWayIsDropped) {
     for (Index g = 0; g < cut.mesh.n_faces(); ++g) {
         const Complex a = form_along(cut.mesh, cut.tau, 3 * g), b = -form_along(cut.mesh, cut.tau, 3 * g + 2);
         EXPECT_GT(cross(a, b), 0) << "face " << g;
+    }
+}
+
+// f = (z - c)^2: from a vertex p with w = p - c in the first quadrant, the vertical transversal
+// u = Re w^2 runs down onto the horizontal critical trajectory Im w = 0 (stopping there at
+// w = sqrt(Re w^2)) and up to the boundary. It stops no earlier curve, and cutting along all
+// of them splits one of the eight sectors in two.
+TEST(Trajectories, TransversalStopsOnTheFirstCurveOfTheOtherFamily) {
+    const Complex zero(0.013, -0.021);
+    const Regularised r = regularise(turned_grid(14), [&](Complex z) { return (z - zero) * (z - zero); }, {zero});
+    ASSERT_EQ(r.form.failed_regions, 0);
+    TraceOptions options;
+    options.motorcycle = true;
+    const std::vector<Trajectory> ts = trace_trajectories(r.form.mesh, r.form.tau, r.zeros, kBoth, options);
+    ASSERT_EQ(ts.size(), 8u);
+    const MeshView& m = r.form.mesh;
+    Index p = 0;
+    for (Index v = 1; v < m.n_vertices(); ++v)
+        if (std::abs(test::point(m, v) - zero - Complex(0.6, 0.25)) < std::abs(test::point(m, p) - zero - Complex(0.6, 0.25)))
+            p = v;
+    const Complex w = test::point(m, p) - zero;
+    const std::vector<TransversalStart> starts{{p, TrajectoryFamily::Vertical}};
+    const std::vector<Trajectory> cross_cut = trace_transversals(m, r.form.tau, r.zeros, starts, ts);
+    ASSERT_EQ(cross_cut.size(), 2u);
+    Index collisions = 0, boundary = 0;
+    for (const Trajectory& t : cross_cut) {
+        EXPECT_EQ(t.start_vertex, p);
+        EXPECT_EQ(t.family, TrajectoryFamily::Vertical);
+        if (t.end == Trajectory::End::Boundary) ++boundary;
+        if (t.end != Trajectory::End::Collision) continue;
+        ++collisions;
+        ASSERT_GE(t.blocker, 0);
+        ASSERT_LT(t.blocker, static_cast<Index>(ts.size()));
+        EXPECT_EQ(ts[t.blocker].family, TrajectoryFamily::Horizontal);
+        EXPECT_LT(t.blocker_segment, ts[t.blocker].n_segments());
+        const Index f = t.segment_face(m, t.n_segments() - 1);
+        Complex at = 0;
+        for (int k = 0; k < 3; ++k) at += t.end_barycentric[k] * test::point(m, m.F(f, k));
+        EXPECT_NEAR(std::abs(at - zero - std::sqrt((w * w).real())), 0, 0.02);  // PL level curves: ~0.01 here
+    }
+    EXPECT_EQ(collisions, 1);
+    EXPECT_EQ(boundary, 1);
+
+    std::vector<Trajectory> all = ts;
+    all.insert(all.end(), cross_cut.begin(), cross_cut.end());
+    const CutMesh cut = cut_along_trajectories(m, r.form.tau, all);
+    EXPECT_EQ(cut.skipped_segments, 0);
+    std::vector<char> border(cut.mesh.n_edges(), 0);
+    for (Index e = 0; e < cut.mesh.n_edges(); ++e) border[e] = cut.edge_trajectory[e] != kNoBorder;
+    const Patches patches = compute_patches(cut.mesh, cut.tau, border);
+    EXPECT_EQ(patches.info.size(), 9u);
+    for (const PatchInfo& info : patches.info) {
+        EXPECT_EQ(info.type, PatchInfo::Type::Disk);
+        EXPECT_EQ(info.flipped_uv_triangles, 0);
     }
 }
 

@@ -45,7 +45,9 @@ struct SegmentationResult {
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface
     kernels::RegularisedForm regular;         //!< traced_input with zero fans
     std::vector<Index> zero_vertices;         //!< per trace start: its vertex of regular.mesh
+    //! Critical trajectories, then (layout mode) the transversals that opened cylinders.
     std::vector<kernels::Trajectory> trajectories;
+    Index transversals = 0;                   //!< the last ones of `trajectories`
     kernels::CutMesh cut;
     kernels::Patches patches;
     kernels::FlowComplex complex;
@@ -76,7 +78,8 @@ void zeros(SegmentationWork& work);
 void fans(SegmentationWork& work);
 //! Critical trajectories from every zero (both families with the motorcycle rule in layout mode).
 void trace(SegmentationWork& work);
-//! Cut along the trajectories, patches with their maps, the flow complex.
+//! Cut along the trajectories (layout mode: cylinders opened by transversals), patches with
+//! their maps, the flow complex.
 void cut(SegmentationWork& work);
 }  // namespace segment_stage
 

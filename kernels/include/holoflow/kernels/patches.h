@@ -7,7 +7,9 @@
 
 #include <Eigen/Core>
 
+#include "holoflow/kernels/flow_cut.h"
 #include "holoflow/kernels/mesh_view.h"
+#include "holoflow/kernels/trajectories.h"
 
 namespace holoflow::kernels {
 
@@ -59,6 +61,22 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
 //! themselves on their border are left as they are. Deterministic.
 //! \pre `patches` from compute_patches on this mesh and border.  \throw InvalidInput.
 Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border, Patches patches);
+
+//! \brief Transversals that open every cylinder patch of a cut into a disk (layout mode: a
+//! ring of closed curves that no critical trajectory crosses). The transversal of a cylinder is
+//! the level curve (trace_transversals) crossing its core (iso-u when the core period is mostly
+//! real) through a vertex strictly inside it; of the vertices nearest the middle across the core
+//! (8 at most, ties to the smaller id), the first with two curves that end on different border
+//! loops is taken (two curves at a regular vertex, more at a fold of the form: a pair of them),
+//! else the first with two that end on one loop: where the border is no straight loop that may
+//! only cut a disk off, and the cylinder left is for another call. A cylinder without either
+//! stays. Zeros are no starts.
+//! \pre `cut` = cut_along_trajectories(mesh, tau, trajectories, ...), `border` its border
+//! flags, `patches` = compute_patches on them.  \throw InvalidInput on mismatched sizes.
+std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                              std::span<const Index> zero_vertices,
+                                              std::span<const Trajectory> trajectories, const CutMesh& cut,
+                                              std::span<const char> border, const Patches& patches);
 
 //! The flow complex G = (V, E, F): nodes (zeros, corners where borders meet or change kind),
 //! pieces (maximal border paths between nodes, or node-less loops) and patches.

@@ -26,7 +26,7 @@ struct Trajectory {
         Collision,  //!< hit an earlier trajectory (layout mode, motorcycle rule)
         LengthCap,  //!< stopped by the length cap: unfinished
     };
-    Index start_vertex = -1;  //!< the zero it leaves from
+    Index start_vertex = -1;  //!< the zero it leaves from (a transversal: the vertex it starts at)
     Index first_face = -1;    //!< face of the first segment (around start_vertex)
     TrajectoryFamily family = TrajectoryFamily::Vertical;
     //! In order; segment j < crossings.size() lies in face(crossings[j].halfedge) and ends there.
@@ -72,5 +72,23 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
                                            std::span<const Index> zero_vertices,
                                            std::span<const TrajectoryFamily> families,
                                            const TraceOptions& options = {});
+
+//! A transversal to trace: the curves of `family` through a regular `vertex`.
+struct TransversalStart {
+    Index vertex = -1;
+    TrajectoryFamily family = TrajectoryFamily::Vertical;
+};
+
+//! \brief Transversals that cut patches open (a cylinder that no critical trajectory crosses):
+//! from each start vertex, every direction of its family's level (two at a regular vertex),
+//! traced as trace_trajectories does. Each stops at its first meeting with a curve of
+//! `earlier` of the other family (Collision, with `blocker` an index into `earlier`), a zero,
+//! or the boundary; the earlier curves are never stopped. A start with a curve that reaches
+//! the length cap instead is left out whole (a cut ending nowhere opens nothing). Deterministic.
+//! \pre `earlier` traced on `mesh` with `tau`.  \throw InvalidInput on bad vertices.
+std::vector<Trajectory> trace_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                           std::span<const Index> zero_vertices,
+                                           std::span<const TransversalStart> starts,
+                                           std::span<const Trajectory> earlier, const TraceOptions& options = {});
 
 }  // namespace holoflow::kernels
