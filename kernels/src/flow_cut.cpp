@@ -90,6 +90,26 @@ void triangulate(const Polygon& poly, const std::vector<Complex>& pos, std::vect
     if (pts.size() == 3) out.push_back({{pts[0], pts[1], pts[2]}, {edge[0], edge[1], edge[2]}});
 }
 
+// The collision point of a segment that could not be inserted lies in no triangle: such points
+// go (inserted points only, so the traced mesh's vertices keep their ids).
+void drop_unused_points(PointMatrix& V, TriangleMatrix& F, std::vector<Index>& original_vertex) {
+    std::vector<Index> new_id(V.rows(), -1);
+    for (Index g = 0; g < F.rows(); ++g)
+        for (int k = 0; k < 3; ++k) new_id[F(g, k)] = 0;
+    Index kept = 0;
+    for (Index v = 0; v < V.rows(); ++v)
+        if (new_id[v] == 0 || original_vertex[v] >= 0) new_id[v] = kept++;
+    if (kept == V.rows()) return;
+    PointMatrix W(kept, 3);
+    std::vector<Index> original(kept);
+    for (Index v = 0; v < V.rows(); ++v)
+        if (new_id[v] >= 0) W.row(new_id[v]) = V.row(v), original[new_id[v]] = original_vertex[v];
+    for (Index g = 0; g < F.rows(); ++g)
+        for (int k = 0; k < 3; ++k) F(g, k) = new_id[F(g, k)];
+    V = std::move(W);
+    original_vertex = std::move(original);
+}
+
 }  // namespace
 
 CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
@@ -293,6 +313,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         }
     }
     for (Index s : skipped) out.skipped_segments += s;
+    if (out.skipped_segments > 0) drop_unused_points(V, F, out.original_vertex);
     out.mesh = make_mesh_view(std::move(V), std::move(F));
     out.tau.resize(out.mesh.n_edges());
     out.edge_trajectory.assign(out.mesh.n_edges(), kNoBorder);

@@ -89,6 +89,30 @@ TEST(FlowCut, CurveStoppedOnACurveThatStoppedEarlierIsPlaced) {
     EXPECT_EQ(edges, (std::array<int, 3>{2, 2, 2}));
 }
 
+// A curve whose collision point lies on no piece (here its blocker segment does not exist; on
+// real meshes, stops that depend on each other in a folded face) cannot be cut in: it is
+// counted as skipped and its point dropped, and the rest is still a valid mesh (it threw
+// "vertex is in no face" before).
+TEST(FlowCut, CurveThatCannotBePlacedIsSkippedAndItsPointDropped) {
+    const Square square;
+    std::vector<Trajectory> ts = blocker_stops_first();
+    ts[2].blocker_segment = 5;
+    const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, ts);
+    EXPECT_EQ(cut.skipped_segments, 1);
+    EXPECT_EQ(cut.mesh.n_vertices(), 7);  // Q goes
+    ASSERT_EQ(static_cast<Index>(cut.original_vertex.size()), cut.mesh.n_vertices());
+    for (Index v = 0; v < 4; ++v) EXPECT_EQ(cut.original_vertex[v], v);
+    double area = 0;
+    for (Index f = 0; f < cut.mesh.n_faces(); ++f) {
+        const Eigen::RowVector3d a = cut.mesh.V.row(cut.mesh.F(f, 0)), b = cut.mesh.V.row(cut.mesh.F(f, 1)),
+                                 c = cut.mesh.V.row(cut.mesh.F(f, 2));
+        const double z = (b - a).cross(c - a)(2) / 2;
+        EXPECT_GT(z, kAreaTol);
+        area += z;
+    }
+    EXPECT_NEAR(area, 1.0, kAreaTol);
+}
+
 TEST(FlowCut, LabelsMustMatchTheEdges) {
     const Square square;
     const std::vector<Index> labels(square.mesh.n_edges() + 1, kNoBorder);

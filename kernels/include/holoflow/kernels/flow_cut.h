@@ -22,7 +22,9 @@ struct CutMesh {
     //! Per edge: the trajectory running along it, the label it inherits from `edge_label`, or
     //! kNoBorder.
     std::vector<Index> edge_trajectory;
-    Index skipped_segments = 0;           //!< segments that could not be inserted (reported)
+    //! Segments that could not be inserted (reported); the collision point of one that ends
+    //! nowhere is no vertex.
+    Index skipped_segments = 0;
 };
 
 //! \brief Splits every face crossed by the trajectories: crossing points become vertices on the
