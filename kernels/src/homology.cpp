@@ -2,6 +2,7 @@
 
 #include <Eigen/SparseCore>
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <functional>
@@ -23,17 +24,33 @@ struct ShortestPathTree {
     std::vector<Index> depth;            // hops from the root
 };
 
-// Dijkstra with a binary heap of (distance, vertex): equal distances pop by vertex index and a
-// vertex keeps the first parent that reached it, so the tree depends on nothing but the input.
+// Lengths on an integer grid of 2^-30 of `scale`: sums are exact, so paths of equal length tie
+// exactly (and go to the smaller vertex) instead of by rounding, which differs between a mesh
+// and its moved or scaled copy (symmetric meshes such as tori of revolution are full of such
+// ties). Values stay below 2^30 per step: no overflow below 2^33 vertices on a path.
+std::int64_t on_grid(double length, double scale) {
+    return std::llround(std::ldexp(length / scale, 30));
+}
+
+// Dijkstra with a binary heap of (grid distance, vertex): equal distances pop by vertex index
+// and a vertex keeps the first parent that reached it, so the tree depends on nothing but the
+// input, and not on its position, orientation or scale.
 ShortestPathTree shortest_path_tree(const MeshView& mesh, Index root) {
     const Index n_v = mesh.n_vertices();
-    std::vector<double> dist(n_v, std::numeric_limits<double>::infinity());
+    std::vector<double> length(mesh.n_edges());
+    double longest = 0;
+    for (Index e = 0; e < mesh.n_edges(); ++e) {
+        length[e] = (mesh.V.row(mesh.E(e, 1)) - mesh.V.row(mesh.E(e, 0))).norm();
+        longest = std::max(longest, length[e]);
+    }
+    HOLOFLOW_REQUIRE(longest > 0 && std::isfinite(longest), "edge lengths must be finite and not all zero");
+    std::vector<std::int64_t> dist(n_v, std::numeric_limits<std::int64_t>::max());
     std::vector<char> done(n_v, 0);
     ShortestPathTree tree{std::vector<Index>(n_v, kNoHalfedge), std::vector<Index>(n_v, 0)};
-    using Entry = std::pair<double, Index>;
+    using Entry = std::pair<std::int64_t, Index>;
     std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> heap;
-    dist[root] = 0.0;
-    heap.emplace(0.0, root);
+    dist[root] = 0;
+    heap.emplace(0, root);
     Index reached = 0;
     while (!heap.empty()) {
         const auto [d, v] = heap.top();
@@ -46,7 +63,7 @@ ShortestPathTree shortest_path_tree(const MeshView& mesh, Index root) {
         do {
             const Index w = mesh.head(h);
             if (!done[w]) {
-                const double nd = d + (mesh.V.row(w) - mesh.V.row(v)).norm();
+                const std::int64_t nd = d + on_grid(length[mesh.halfedge_edge[h]], longest);
                 if (nd < dist[w]) {
                     dist[w] = nd;
                     tree.parent_halfedge[w] = h;
@@ -139,14 +156,19 @@ Index assign_wedges(const MeshView& mesh, const std::vector<char>& cut,
 
 Index central_vertex(const MeshView& mesh) {
     const Eigen::RowVector3d centroid = mesh.V.colwise().mean();
-    Index best = 0;
-    double best_d2 = std::numeric_limits<double>::infinity();
+    std::vector<double> distance(mesh.n_vertices());
+    double farthest = 0;
     for (Index v = 0; v < mesh.n_vertices(); ++v) {
-        const double d2 = (mesh.V.row(v) - centroid).squaredNorm();
-        if (d2 < best_d2) {
-            best_d2 = d2;
-            best = v;
-        }
+        distance[v] = (mesh.V.row(v) - centroid).norm();
+        farthest = std::max(farthest, distance[v]);
+    }
+    if (!(farthest > 0 && std::isfinite(farthest))) return 0;
+    // Compared on the grid: vertices equally far (a ring around a torus's hole) tie exactly.
+    Index best = 0;
+    std::int64_t best_distance = std::numeric_limits<std::int64_t>::max();
+    for (Index v = 0; v < mesh.n_vertices(); ++v) {
+        const std::int64_t d = on_grid(distance[v], farthest);
+        if (d < best_distance) best_distance = d, best = v;
     }
     return best;
 }

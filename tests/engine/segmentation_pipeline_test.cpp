@@ -144,11 +144,12 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
     }
 }
 
-// oblong (around a sliced tip) and cheese (where its form folds) had a cylinder no critical
-// trajectory crosses; layout mode opens each with transversals, so every patch is a disk. In
-// vertical mode (the paper's) oblong stays one cylinder.
+// A genus-0 surface sliced at two tips is an annulus that no critical trajectory crosses (no
+// zeros): layout mode opens it into one exact rectangle. oblong (around a sliced tip) and
+// tetrahedron (a cylinder whose border is no straight loop) had a cylinder patch next to
+// others; every patch is now a disk. In vertical mode (the paper's) oblong stays one cylinder.
 TEST(Segmentation, LayoutOpensCylindersWithTransversals) {
-    for (const char* name : {"oblong", "cheese"}) {
+    for (const char* name : {"sphere", "oblong", "tetrahedron"}) {
         SCOPED_TRACE(name);
         const SegmentationResult r = segment(*test::corpus_mesh(name));
         EXPECT_GT(r.transversals, 0);
@@ -162,6 +163,10 @@ TEST(Segmentation, LayoutOpensCylindersWithTransversals) {
             EXPECT_TRUE(std::find(r.zero_vertices.begin(), r.zero_vertices.end(), t.start_vertex) ==
                         r.zero_vertices.end());
             if (t.end == kernels::Trajectory::End::Collision) EXPECT_LT(t.blocker, i);
+        }
+        if (std::string(name) == "sphere") {
+            EXPECT_EQ(r.patches.info.size(), 1u);
+            EXPECT_LT(rectangle_error(r), kRectangleTol);
         }
     }
     SegmentOptions vertical;
@@ -246,6 +251,24 @@ TEST(Segmentation, RigidMotionAndScaleChangeNothing) {
     EXPECT_EQ(a.zeros.zeros.size(), b.zeros.zeros.size());
     EXPECT_EQ(a.trajectories.size(), b.trajectories.size());
     EXPECT_EQ(a.patches.info.size(), b.patches.info.size());
+
+    // A torus of revolution is full of ties (equally long paths, a ring of vertices equally
+    // near its centroid); they must not be broken by rounding, which differs between copies:
+    // the same fundamental domain at every scale, up to rounding.
+    const MeshView torus = shapes::torus(3, 1, 24, 12);
+    const SegmentationResult t = segment(torus);
+    ASSERT_EQ(t.patches.info.size(), 1u);
+    for (const double scale : {1e-3, 3.7, 1e5}) {
+        SCOPED_TRACE(scale);
+        MeshView copy = torus;
+        for (Index v = 0; v < copy.n_vertices(); ++v)
+            copy.V.row(v) = scale * (R * torus.V.row(v).transpose()).transpose() + Eigen::RowVector3d(1, -2, 5);
+        const SegmentationResult c = segment(copy);
+        ASSERT_EQ(c.patches.info.size(), 1u);
+        const kernels::PatchInfo &p = t.patches.info[0], &q = c.patches.info[0];
+        EXPECT_NEAR(q.width / q.height, p.width / p.height, 1e-9);
+        EXPECT_EQ(c.cut.mesh.n_faces(), t.cut.mesh.n_faces());
+    }
 }
 
 TEST(Segmentation, MidpointSubdivisionKeepsZerosAndPatches) {

@@ -28,16 +28,19 @@ struct HomologyBasis {
 
 struct HomologyOptions {
     //! Root of the shortest-path tree; -1 picks the vertex nearest the vertex centroid (smallest
-    //! index on ties), which keeps the tree shallow and the loops short on most shapes.
+    //! index on ties, distances compared to 2^-30 of the largest), which keeps the tree shallow
+    //! and the loops short on most shapes.
     Index root = -1;
 };
 
-//! The vertex nearest the centroid of the vertices, smallest index on ties: the default root.
+//! The vertex nearest the centroid of the vertices, smallest index on ties (distances compared
+//! to 2^-30 of the largest, so a moved, turned or scaled copy picks the same): the default root.
 Index central_vertex(const MeshView& mesh);
 
 //! \brief Tree-cotree homology basis, dual closed 1-forms, cut graph and fundamental domain.
-//! Shortest-path tree by Dijkstra on edge lengths (ties to the smaller vertex, then first
-//! halfedge found), dual tree by BFS over faces from face 0; linear time apart from Dijkstra.
+//! Shortest-path tree by Dijkstra on edge lengths rounded to 2^-30 of the longest (exact sums:
+//! equal paths tie, to the smaller vertex, then the first halfedge found, the same for a moved,
+//! turned or scaled copy), dual tree by BFS over faces from face 0; linear time apart from Dijkstra.
 //! Genus 0 is a value: no generators, empty cut graph, one wedge per vertex.
 //! \pre closed, connected.  \throw InvalidInput.
 HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions& options = {});
