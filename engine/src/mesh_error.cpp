@@ -22,6 +22,7 @@ const char* to_string(MeshErrorKind kind) {
         case MeshErrorKind::NonManifoldVertex: return "non_manifold_vertex";
         case MeshErrorKind::NonOrientable: return "non_orientable";
         case MeshErrorKind::TooLarge: return "too_large";
+        case MeshErrorKind::CoordinateRange: return "coordinate_range";
     }
     return "unknown_error";  // only reachable through a cast of an out-of-range value
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <sstream>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -17,6 +18,9 @@ using Vec3 = Eigen::Vector3d;
 // A triangle is zero-area when its cross product vanishes to rounding relative to its longest
 // edge: exactly collinear or coincident corners. Needles with angles of 1e-6 degrees still pass.
 constexpr double kZeroAreaRelative = 16 * std::numeric_limits<double>::epsilon();
+// Extent of the bounding box the pipeline takes: measured to work on 1e-75 .. 1e75 (a torus),
+// with room for edges far shorter than the model.
+constexpr double kMinExtent = 1e-60, kMaxExtent = 1e60;
 // Ear clipping is quadratic in the polygon size; beyond this a fan is used.
 constexpr std::size_t kMaxEarClippingCorners = 256;
 // MeshView uses 32-bit halfedge indices (3 per face).
@@ -206,6 +210,22 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
             fail(MeshErrorKind::NonFiniteCoordinate,
                  "vertex " + std::to_string(i / 3) + " has coordinate " + "xyz"[i % 3] + " = " +
                      std::to_string(soup.positions[i]));
+
+    {   // Areas and cotangents multiply up to four lengths: keep those within double range.
+        double extent = 0;
+        for (int axis = 0; axis < 3; ++axis) {
+            double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+            for (std::size_t i = axis; i < soup.positions.size(); i += 3)
+                lo = std::min(lo, soup.positions[i]), hi = std::max(hi, soup.positions[i]);
+            if (hi >= lo) extent = std::max(extent, hi - lo);
+        }
+        if (extent > kMaxExtent || (extent > 0 && extent < kMinExtent)) {
+            std::ostringstream detail;
+            detail << "the model is " << extent << " across; supported are " << kMinExtent << " to " << kMaxExtent
+                   << " (areas would overflow or underflow): rescale it";
+            fail(MeshErrorKind::CoordinateRange, detail.str());
+        }
+    }
 
     const auto n_v = static_cast<std::int64_t>(soup.n_vertices());
     std::vector<std::array<std::int64_t, 3>> triangles;

@@ -339,6 +339,23 @@ TEST(HostileInput, NanAndInfinityAreRefusedInEveryFormat) {
     }
 }
 
+// A valid tetrahedron scaled far out of range is refused as such (it was called zero area,
+// or failed later in the pipeline); within the range it loads.
+TEST(HostileInput, CoordinatesOutOfRangeAreNamed) {
+    const auto tetrahedron = [](const char* scale) {
+        const std::string s(scale);
+        return "OFF\n4 4 0\n0 0 0\n" + s + " 0 0\n0 " + s + " 0\n0 0 " + s + "\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    };
+    for (const char* scale : {"1e100", "1e300", "1e-100", "1e-300"}) {
+        SCOPED_TRACE(scale);
+        EXPECT_TRUE(refused_as(run(tetrahedron(scale), MeshFormat::Off), MeshErrorKind::CoordinateRange));
+    }
+    for (const char* scale : {"1e50", "1e-50"}) {
+        SCOPED_TRACE(scale);
+        EXPECT_TRUE(run(tetrahedron(scale), MeshFormat::Off).loaded);
+    }
+}
+
 TEST(HostileInput, AllCollinearPointsAreZeroArea) {
     EXPECT_TRUE(refused_as(run("OFF\n3 1 0\n0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n", MeshFormat::Off),
                            MeshErrorKind::ZeroAreaFace));

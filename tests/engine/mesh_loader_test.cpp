@@ -202,11 +202,11 @@ TEST(MeshLoader, SharedMoebiusFileIsRefused) {
 TEST(MeshLoader, ErrorKindsHaveDistinctNamesAndExitStatuses) {
     std::set<std::string> names;
     std::set<int> statuses;
-    for (int k = 0; k <= static_cast<int>(MeshErrorKind::TooLarge); ++k) {
+    for (int k = 0; k <= static_cast<int>(MeshErrorKind::CoordinateRange); ++k) {
         names.insert(to_string(static_cast<MeshErrorKind>(k)));
         statuses.insert(exit_status(static_cast<MeshErrorKind>(k)));
     }
-    EXPECT_EQ(names.size(), static_cast<std::size_t>(MeshErrorKind::TooLarge) + 1);
+    EXPECT_EQ(names.size(), static_cast<std::size_t>(MeshErrorKind::CoordinateRange) + 1);
     EXPECT_EQ(statuses.size(), names.size());
     EXPECT_EQ(statuses.count(0), 0u);
 }

@@ -26,6 +26,7 @@ enum class MeshErrorKind {
     NonManifoldVertex,   // a vertex whose faces form several fans
     NonOrientable,       // no consistent orientation exists (Moebius strip)
     TooLarge,            // more elements than the engine's 32-bit indices or a --max-* limit allow
+    CoordinateRange,     // coordinates spanning more or less than doubles can square twice
 };
 
 const char* to_string(MeshErrorKind kind);
