@@ -17,6 +17,7 @@ namespace {
 using Complex = std::complex<double>;
 constexpr double kLevelTol = 1e-9;        // a vertex this close to the level (relative) is on it
 constexpr double kFirstRound = 1.0 / 32;  // first motorcycle round, in sqrt(image area)
+constexpr std::size_t kSharedCrossings = 16;  // crossings of all curves together, per face
 
 // Per-trace tracing state between rounds.
 struct Walker {
@@ -43,11 +44,19 @@ class Tracer {
         for (Index v : zero_vertices) zero_[v] = 1;
         unit_ = std::sqrt(area);
         cap_ = options.length_cap * unit_;
-        max_crossings_ = 8 * static_cast<std::size_t>(mesh.n_faces()) + 64;
+        n_faces_ = static_cast<std::size_t>(mesh.n_faces());
+        max_crossings_ = 8 * n_faces_ + 64;
     }
 
     double unit() const { return unit_; }
     double cap() const { return cap_; }
+
+    // The cut grows with every crossing: `curves` curves share 16 #F + 64 per curve of them
+    // (generically dense vertical curves on a high-genus surface would otherwise cut it into
+    // hundreds of faces per input face). Set before tracing, so it depends on nothing else.
+    void share_crossings(std::size_t curves) {
+        if (curves > 0) max_crossings_ = std::min(max_crossings_, kSharedCrossings * n_faces_ / curves + 64);
+    }
 
     double level(Complex z, TrajectoryFamily family) const {
         return family == TrajectoryFamily::Vertical ? z.real() : z.imag();
@@ -156,7 +165,7 @@ class Tracer {
     std::vector<Complex> along_;
     std::vector<char> zero_, boundary_;
     double unit_ = 0, cap_ = 0;
-    std::size_t max_crossings_ = 0;
+    std::size_t n_faces_ = 0, max_crossings_ = 0;
 };
 
 // One segment of a trajectory inside a face, in that face's chart, with arrival lengths.
@@ -313,7 +322,7 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
                                            const TraceOptions& options) {
     HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
     for (Index v : zero_vertices) HOLOFLOW_REQUIRE(v >= 0 && v < mesh.n_vertices(), "zero vertex out of range");
-    const Tracer tracer(mesh, tau, zero_vertices, options);
+    Tracer tracer(mesh, tau, zero_vertices, options);
     std::vector<Trajectory> out;
     std::vector<Walker> walkers;
     // A vertex listed twice (zeros the fans merged into one centre) starts its curves once.
@@ -325,6 +334,7 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
     }
     const Index n = static_cast<Index>(out.size());
     if (!(tracer.unit() > 0)) return out;
+    tracer.share_crossings(out.size());
 
     if (!options.motorcycle) {
         par::for_each_index(out.size(), true, [&](std::size_t i) { tracer.advance(out[i], walkers[i], tracer.cap() * 2); });

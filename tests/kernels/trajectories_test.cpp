@@ -10,6 +10,7 @@
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/flow_cut.h"
 #include "holoflow/kernels/patches.h"
+#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/zero_fans.h"
 #include "support/plane_zeros.h"
 #include "support/test_support.h"
@@ -203,6 +204,34 @@ TEST(Trajectories, TransversalStopsOnTheFirstCurveOfTheOtherFamily) {
     for (const PatchInfo& info : patches.info) {
         EXPECT_EQ(info.type, PatchInfo::Type::Disk);
         EXPECT_EQ(info.flipped_uv_triangles, 0);
+    }
+}
+
+// A form on a torus whose vertical curves have an irrational slope: they never close and run
+// to the cap. All curves together share 16 crossings per face (plus 64 each), so the cut stays
+// a few times the mesh (dense curves on high-genus meshes cut it into millions of faces).
+TEST(Trajectories, DenseCurvesShareACrossingBudget) {
+    constexpr int kAround = 24, kAcross = 12;
+    const MeshView m = shapes::torus(3, 1, kAround, kAcross);
+    const auto wrapped = [](Index from, Index to, int n) {  // -1, 0 or 1 step around
+        Index d = (to - from + n) % n;
+        return static_cast<double>(d > n / 2 ? d - n : d);
+    };
+    Eigen::VectorXcd tau(m.n_edges());
+    for (Index e = 0; e < m.n_edges(); ++e) {
+        const Index a = m.E(e, 0), b = m.E(e, 1);  // vertex i * kAcross + j
+        const double di = wrapped(a / kAcross, b / kAcross, kAround), dj = wrapped(a % kAcross, b % kAcross, kAcross);
+        tau(e) = Complex(di + (std::sqrt(5.0) - 1) / 2 * dj, dj) / Complex(kAround, 0);
+    }
+    std::vector<Index> starts;
+    for (Index v = 0; v < m.n_vertices(); v += 29) starts.push_back(v);
+    const std::vector<TrajectoryFamily> vertical{TrajectoryFamily::Vertical};
+    const std::vector<Trajectory> ts = trace_trajectories(m, tau, starts, vertical);
+    ASSERT_EQ(ts.size(), 2 * starts.size());
+    const std::size_t share = 16 * static_cast<std::size_t>(m.n_faces()) / ts.size() + 64;
+    for (const Trajectory& t : ts) {
+        EXPECT_EQ(t.end, Trajectory::End::LengthCap);
+        EXPECT_LE(t.crossings.size(), share + 1);
     }
 }
 

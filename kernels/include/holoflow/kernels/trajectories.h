@@ -62,7 +62,8 @@ struct TraceOptions {
 //! exactly at the level counting as above it (symbolic perturbation), so a curve never passes
 //! through a vertex and every face has 0 or 2 crossing edges. Stops at zero vertices (within
 //! 1e-9 of the local edge image), boundary edges, boundary vertices at the level, the length
-//! cap, or (motorcycle) an earlier trajectory: all curves advance in rounds of doubling image
+//! cap (also: all curves share 16 #F crossings, 16 #F / #curves + 64 each), or (motorcycle) an
+//! earlier trajectory: all curves advance in rounds of doubling image
 //! length concurrently, collisions are resolved afterwards in order of the later arrival time
 //! (ties by id), so the result does not depend on the thread count. A curve traced from both
 //! of its zeros (a saddle connection, a closed critical loop) is kept once, whole: a second copy,
