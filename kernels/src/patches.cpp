@@ -23,7 +23,7 @@ constexpr double kFlipTol = 1e-12;  // signed uv area below -tol * (longest edge
 
 constexpr double kSideBulge = 1e-4;       // repaired borders: bulge of a side over its length
 constexpr Index kCornerCandidates = 32;  // border points tried per rectangle corner
-constexpr Index kOpeningCandidates = 8;  // start vertices tried per cylinder
+constexpr Index kOpeningCandidates = 64;  // start vertices tried per cylinder (each one short trace)
 
 bool flipped_uv(Complex a, Complex b, Complex c) {
     const double scale = std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)});

@@ -66,7 +66,7 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
 //! ring of closed curves that no critical trajectory crosses). The transversal of a cylinder is
 //! the level curve (trace_transversals) crossing its core (iso-u when the core period is mostly
 //! real) through a vertex strictly inside it; of the vertices nearest the middle across the core
-//! (8 at most, ties to the smaller id), the first with two curves that end on different border
+//! (64 at most, ties to the smaller id), the first with two curves that end on different border
 //! loops is taken (two curves at a regular vertex, more at a fold of the form: a pair of them),
 //! else the first with two that end on one loop: where the border is no straight loop that may
 //! only cut a disk off, and the cylinder left is for another call. A cylinder without either
