@@ -93,12 +93,13 @@ void triangulate(const Polygon& poly, const std::vector<Complex>& pos, std::vect
 // The collision point of a segment that could not be inserted lies in no triangle: such points
 // go (inserted points only, so the traced mesh's vertices keep their ids).
 void drop_unused_points(PointMatrix& V, TriangleMatrix& F, std::vector<Index>& original_vertex) {
-    std::vector<Index> new_id(V.rows(), -1);
+    std::vector<char> used(V.rows(), 0);
     for (Index g = 0; g < F.rows(); ++g)
-        for (int k = 0; k < 3; ++k) new_id[F(g, k)] = 0;
+        for (int k = 0; k < 3; ++k) used[F(g, k)] = 1;
+    std::vector<Index> new_id(V.rows(), -1);
     Index kept = 0;
     for (Index v = 0; v < V.rows(); ++v)
-        if (new_id[v] == 0 || original_vertex[v] >= 0) new_id[v] = kept++;
+        if (used[v] || original_vertex[v] >= 0) new_id[v] = kept++;
     if (kept == V.rows()) return;
     PointMatrix W(kept, 3);
     std::vector<Index> original(kept);

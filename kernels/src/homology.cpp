@@ -11,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/parallel.h"
 
@@ -37,13 +38,11 @@ std::int64_t on_grid(double length, double scale) {
 // input, and not on its position, orientation or scale.
 ShortestPathTree shortest_path_tree(const MeshView& mesh, Index root) {
     const Index n_v = mesh.n_vertices();
-    std::vector<double> length(mesh.n_edges());
-    double longest = 0;
-    for (Index e = 0; e < mesh.n_edges(); ++e) {
-        length[e] = (mesh.V.row(mesh.E(e, 1)) - mesh.V.row(mesh.E(e, 0))).norm();
-        longest = std::max(longest, length[e]);
-    }
+    const std::vector<double> length = edge_lengths(mesh);
+    const double longest = length.empty() ? 0.0 : *std::max_element(length.begin(), length.end());
     HOLOFLOW_REQUIRE(longest > 0 && std::isfinite(longest), "edge lengths must be finite and not all zero");
+    std::vector<std::int64_t> step(length.size());
+    for (std::size_t e = 0; e < length.size(); ++e) step[e] = on_grid(length[e], longest);
     std::vector<std::int64_t> dist(n_v, std::numeric_limits<std::int64_t>::max());
     std::vector<char> done(n_v, 0);
     ShortestPathTree tree{std::vector<Index>(n_v, kNoHalfedge), std::vector<Index>(n_v, 0)};
@@ -63,7 +62,7 @@ ShortestPathTree shortest_path_tree(const MeshView& mesh, Index root) {
         do {
             const Index w = mesh.head(h);
             if (!done[w]) {
-                const std::int64_t nd = d + on_grid(length[mesh.halfedge_edge[h]], longest);
+                const std::int64_t nd = d + step[mesh.halfedge_edge[h]];
                 if (nd < dist[w]) {
                     dist[w] = nd;
                     tree.parent_halfedge[w] = h;

@@ -51,6 +51,24 @@ Index next_on_border(const MeshView& mesh, std::span<const char> border, Index h
     return n;
 }
 
+// The border loops of the patches, each followed with its patch on the left: per halfedge its
+// loop (-1 off the border), and each loop's first halfedge.
+struct BorderLoops {
+    std::vector<Index> loop_of;
+    std::vector<Index> first;
+};
+
+BorderLoops border_loops(const MeshView& mesh, std::span<const char> border) {
+    BorderLoops out{std::vector<Index>(mesh.n_halfedges(), -1), {}};
+    for (Index h0 = 0; h0 < mesh.n_halfedges(); ++h0) {
+        if (out.loop_of[h0] >= 0 || !on_border(mesh, border, h0)) continue;
+        const Index id = static_cast<Index>(out.first.size());
+        out.first.push_back(h0);
+        for (Index h = h0; out.loop_of[h] < 0; h = next_on_border(mesh, border, h)) out.loop_of[h] = id;
+    }
+    return out;
+}
+
 // Corners (named by the halfedge leaving them) around a vertex joined across non-border edges:
 // the points of the patches cut open.
 UnionFind patch_points(const MeshView& mesh, std::span<const char> border) {
@@ -247,15 +265,16 @@ struct Opening {
 // non-border edge of the patch), nearest the middle across the core first, ties to the smaller
 // id; kOpeningCandidates at most.
 std::vector<Opening> cylinder_openings(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border,
-                                       const Patches& patches, std::span<const char> eligible) {
+                                       const BorderLoops& loops, const Patches& patches,
+                                       std::span<const char> eligible) {
     const Index np = static_cast<Index>(patches.info.size());
     const auto is_cylinder = [&](Index id) { return patches.info[id].type == PatchInfo::Type::Cylinder; };
-    // The core period of each cylinder: the form along one of its border loops.
+    // The core period of each cylinder: the form along its first border loop.
     std::vector<Complex> period(np, 0);
     std::vector<char> walked(np, 0);
-    for (Index h0 = 0; h0 < mesh.n_halfedges(); ++h0) {
+    for (Index h0 : loops.first) {
         const Index id = patches.face_patch[MeshView::face(h0)];
-        if (walked[id] || !is_cylinder(id) || !on_border(mesh, border, h0)) continue;
+        if (walked[id] || !is_cylinder(id)) continue;
         walked[id] = 1;
         Index h = h0;
         do {
@@ -365,14 +384,8 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
         if (points.find(h) == h) ++vertices[p.face_patch[MeshView::face(h)]];
 
-    // Border loops: follow border halfedges of the patch around its faces.
-    std::vector<char> walked(mesh.n_halfedges(), 0);
     std::vector<int> loops(np, 0);
-    for (Index h0 = 0; h0 < mesh.n_halfedges(); ++h0) {
-        if (walked[h0] || !on_border(mesh, border, h0)) continue;
-        ++loops[p.face_patch[MeshView::face(h0)]];
-        for (Index h = h0; !walked[h]; h = next_on_border(mesh, border, h)) walked[h] = 1;
-    }
+    for (Index h0 : border_loops(mesh, border).first) ++loops[p.face_patch[MeshView::face(h0)]];
     for (Index id = 0; id < np; ++id) {
         PatchInfo& info = p.info[id];
         const Index edges = interior_halfedges[id] / 2 + border_halfedges[id];
@@ -459,23 +472,18 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
     for (Index v = 0; v < cm.n_vertices(); ++v) eligible[v] = cut.original_vertex[v] >= 0;
     for (Index z : zero_vertices)
         if (z >= 0 && z < cm.n_vertices()) eligible[z] = 0;  // the cut keeps the traced vertex ids
-    const std::vector<Opening> openings = cylinder_openings(cm, cut.tau, border, patches, eligible);
+    const BorderLoops loops = border_loops(cm, border);
+    const std::vector<Opening> openings = cylinder_openings(cm, cut.tau, border, loops, patches, eligible);
     if (openings.empty()) return {};
 
-    // Border loops of the cylinders, and their halfedges by traced face and by tail vertex.
-    std::vector<Index> loop_of(cm.n_halfedges(), -1);
+    // The cylinders' border halfedges by traced face and by tail vertex.
+    const std::vector<Index>& loop_of = loops.loop_of;
     std::vector<std::pair<Index, Index>> by_face, by_tail;
-    Index loops = 0;
-    for (Index h0 = 0; h0 < cm.n_halfedges(); ++h0) {
-        if (loop_of[h0] >= 0 || !on_border(cm, border, h0) ||
-            patches.info[patches.face_patch[MeshView::face(h0)]].type != PatchInfo::Type::Cylinder)
+    for (Index h = 0; h < cm.n_halfedges(); ++h) {
+        if (loop_of[h] < 0 || patches.info[patches.face_patch[MeshView::face(h)]].type != PatchInfo::Type::Cylinder)
             continue;
-        for (Index h = h0; loop_of[h] < 0; h = next_on_border(cm, border, h)) {
-            loop_of[h] = loops;
-            by_face.emplace_back(cut.original_face[MeshView::face(h)], h);
-            by_tail.emplace_back(cm.tail(h), h);
-        }
-        ++loops;
+        by_face.emplace_back(cut.original_face[MeshView::face(h)], h);
+        by_tail.emplace_back(cm.tail(h), h);
     }
     std::sort(by_face.begin(), by_face.end());
     std::sort(by_tail.begin(), by_tail.end());

@@ -414,24 +414,23 @@ std::vector<Trajectory> trace_transversals(const MeshView& mesh, const Eigen::Ve
     std::vector<Walker> walkers;
     for (const TransversalStart& s : starts) tracer.start(s.vertex, s.family, out, walkers);
     if (!(tracer.unit() > 0)) return {};
-    par::for_each_index(out.size(), true, [&](std::size_t i) { tracer.advance(out[i], walkers[i], tracer.cap() * 2); });
 
-    // The earlier curves' segments in the faces the new ones cross.
-    std::vector<char> visited(mesh.n_faces(), 0);
-    for (const Trajectory& tr : out)
-        for (Index j = 0; j < tr.n_segments(); ++j) visited[tr.segment_face(mesh, j)] = 1;
+    // The earlier curves' segments, by face.
     std::vector<std::vector<Segment>> bucket(mesh.n_faces());
     for (Index i = 0; i < static_cast<Index>(earlier.size()); ++i)
-        for (Index j = 0; j < earlier[i].n_segments(); ++j)
-            if (visited[earlier[i].segment_face(mesh, j)])
-                bucket[earlier[i].segment_face(mesh, j)].push_back(trajectory_segment(mesh, tracer, earlier[i], i, j));
-
-    // Each new curve stops at its first meeting with an earlier one of the other family.
-    for (Index k = 0; k < static_cast<Index>(out.size()); ++k) {
+        for (Index j = 0; j < earlier[i].n_segments(); ++j) {
+            const Segment s = trajectory_segment(mesh, tracer, earlier[i], i, j);
+            bucket[s.face].push_back(s);
+        }
+    // Each new curve stops at its first meeting with an earlier one of the other family. It
+    // advances in rounds of doubling length, so nothing is traced far past that meeting.
+    std::vector<Index> next_segment(out.size(), 0);
+    const auto advance_and_stop = [&](std::size_t k, double until) {
         Trajectory& tr = out[k];
+        tracer.advance(tr, walkers[k], until);
         const Index segments = tr.n_segments();
-        for (Index j = 0; j < segments; ++j) {
-            const Segment s = trajectory_segment(mesh, tracer, tr, k, j);
+        for (Index j = next_segment[k]; j < segments; ++j) {
+            const Segment s = trajectory_segment(mesh, tracer, tr, static_cast<Index>(k), j);
             std::optional<Meeting> first;
             const Segment* blocker = nullptr;
             for (const Segment& q : bucket[s.face]) {
@@ -443,9 +442,21 @@ std::vector<Trajectory> trace_transversals(const MeshView& mesh, const Eigen::Ve
             if (first) {
                 end_at_collision(tracer, tr, j, first->at_p, blocker->trajectory, blocker->index, first->at_q, s.face,
                                  first->point);
+                walkers[k].done = true;
                 break;
             }
         }
+        next_segment[k] = tr.n_segments();
+    };
+    for (double T = kFirstRound * tracer.unit();; T *= 2) {
+        const double until = std::min(T, tracer.cap() * 2);
+        par::for_each_index(out.size(), true, [&](std::size_t k) {
+            // (A curve can end in its first step, at the boundary: its segment is checked too.)
+            if (!walkers[k].done || next_segment[k] < out[k].n_segments()) advance_and_stop(k, until);
+        });
+        if (until >= tracer.cap() * 2 ||
+            std::all_of(walkers.begin(), walkers.end(), [](const Walker& w) { return w.done; }))
+            break;
     }
     // A start is kept with all its curves or not at all: a slit from one side opens nothing.
     std::vector<char> unfinished(mesh.n_vertices(), 0);
