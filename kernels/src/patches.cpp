@@ -259,11 +259,14 @@ struct Opening {
     double off_middle;  // distance of its uv from the middle of the patch across the core
     Index vertex;
     bool vertical;      // the core period is mostly real: iso-u lines cross it
+    bool on_boundary;   // on the surface boundary (one curve leaves it into the patch)
 };
 
 // Per cylinder patch, the eligible vertices strictly inside it (every edge at it an interior,
 // non-border edge of the patch), nearest the middle across the core first, ties to the smaller
-// id; kOpeningCandidates at most.
+// id; then those on the surface boundary with no trajectory at them (a cylinder of a
+// double-covered or tip-sliced surface may have no inside vertex at all); kOpeningCandidates
+// at most.
 std::vector<Opening> cylinder_openings(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border,
                                        const BorderLoops& loops, const Patches& patches,
                                        std::span<const char> eligible) {
@@ -288,21 +291,25 @@ std::vector<Opening> cylinder_openings(const MeshView& mesh, const Eigen::Vector
         if (!eligible[v] || first == kNoHalfedge) continue;
         const Index id = patches.face_patch[MeshView::face(first)];
         if (!is_cylinder(id)) continue;
-        bool inside = true;
+        // Every face at v in the patch and no trajectory edge at v (surface boundary edges
+        // are allowed: the fan then ends, h = kNoHalfedge).
+        bool clean = true;
         Index h = first;
         do {
-            inside = !on_border(mesh, border, h) && patches.face_patch[MeshView::face(h)] == id;
+            clean = patches.face_patch[MeshView::face(h)] == id && !border[mesh.halfedge_edge[h]] &&
+                    !border[mesh.halfedge_edge[MeshView::prev(h)]];
             h = mesh.rotate(h);
-        } while (inside && h != first && h != kNoHalfedge);
-        if (!inside || h == kNoHalfedge) continue;
+        } while (clean && h != first && h != kNoHalfedge);
+        if (!clean) continue;
         const PatchInfo& info = patches.info[id];
         const bool vertical = std::abs(period[id].real()) >= std::abs(period[id].imag());
         const Complex uv = patches.corner_uv[first];
         const double off_middle = vertical ? std::abs(uv.imag() - info.height / 2) : std::abs(uv.real() - info.width / 2);
-        out.push_back({id, off_middle, v, vertical});
+        out.push_back({id, off_middle, v, vertical, h == kNoHalfedge});
     }
     std::sort(out.begin(), out.end(), [](const Opening& a, const Opening& b) {
-        return std::tie(a.patch, a.off_middle, a.vertex) < std::tie(b.patch, b.off_middle, b.vertex);
+        return std::tie(a.patch, a.on_boundary, a.off_middle, a.vertex) <
+               std::tie(b.patch, b.on_boundary, b.off_middle, b.vertex);
     });
     std::vector<Opening> kept;
     for (std::size_t i = 0; i < out.size(); ++i)
@@ -518,7 +525,9 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
     const std::vector<Trajectory> traced = trace_transversals(mesh, tau, zero_vertices, starts, trajectories);
     // Per cylinder, the first start with two curves that run from one border loop to the
     // other, else the first with two that end on one loop (they cut a disk off the cylinder).
-    // A start at a fold of the form sends more than two; a pair of them is a cut as well.
+    // A start at a fold of the form sends more than two; a pair of them is a cut as well. A
+    // start on the surface boundary counts as a curve of its own (no curve) ending on its loop.
+    const auto filled = [](const std::array<const Trajectory*, 2>& pair) { return pair[0] || pair[1]; };
     std::vector<Trajectory> out;
     for (std::size_t i = 0; i < openings.size();) {
         const Index patch = openings[i].patch;
@@ -526,19 +535,21 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
         for (; i < openings.size() && openings[i].patch == patch; ++i) {
             const Index v = cut.original_vertex[openings[i].vertex];
             std::vector<std::pair<const Trajectory*, Index>> curves;  // with the loop each ends on
+            if (openings[i].on_boundary) curves.emplace_back(nullptr, loop_of[cm.vertex_halfedge[openings[i].vertex]]);
             for (const Trajectory& t : traced)
                 if (t.start_vertex == v) curves.emplace_back(&t, end_loop(t, patch));
             for (std::size_t a = 0; a < curves.size(); ++a)
                 for (std::size_t b = a + 1; b < curves.size(); ++b) {
                     if (curves[a].second < 0 || curves[b].second < 0) continue;
                     auto& slot = curves[a].second != curves[b].second ? across : off;
-                    if (!slot[0]) slot = {curves[a].first, curves[b].first};
+                    if (!filled(slot)) slot = {curves[a].first, curves[b].first};
                 }
-            if (across[0]) break;
+            if (filled(across)) break;
         }
         while (i < openings.size() && openings[i].patch == patch) ++i;
-        const auto& chosen = across[0] ? across : off;
-        if (chosen[0]) out.insert(out.end(), {*chosen[0], *chosen[1]});
+        const auto& chosen = filled(across) ? across : off;
+        for (const Trajectory* t : chosen)
+            if (t) out.push_back(*t);
     }
     return out;
 }

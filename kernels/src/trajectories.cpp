@@ -84,6 +84,20 @@ class Tracer {
                 step_across(tr, w, across, t, db, dc);
                 out.push_back(std::move(tr));
                 walkers.push_back(w);
+            } else if (std::abs(db) <= tol && boundary_[mesh_.head(h)] && mesh_.twin[h] != kNoHalfedge) {
+                // The level runs along an inner edge to a boundary vertex (symmetric meshes): the
+                // edge is the whole curve. Its other face sees it as its `dc` side and skips it.
+                Trajectory tr;
+                tr.start_vertex = v;
+                tr.first_face = MeshView::face(h);
+                tr.family = family;
+                tr.end = Trajectory::End::Boundary;
+                tr.end_vertex = mesh_.head(h);
+                tr.length = std::abs(level(along_[h], other(family)));
+                Walker w;
+                w.done = true;
+                out.push_back(std::move(tr));
+                walkers.push_back(w);
             }
             h = mesh_.rotate(h);
         } while (h != kNoHalfedge && h != first);

@@ -162,7 +162,9 @@ TEST(Segmentation, LayoutOpensCylindersWithTransversals) {
             const kernels::Trajectory& t = r.trajectories[i];
             EXPECT_TRUE(std::find(r.zero_vertices.begin(), r.zero_vertices.end(), t.start_vertex) ==
                         r.zero_vertices.end());
-            if (t.end == kernels::Trajectory::End::Collision) EXPECT_LT(t.blocker, i);
+            if (t.end == kernels::Trajectory::End::Collision) {
+                EXPECT_LT(t.blocker, i);
+            }
         }
         if (std::string(name) == "sphere") {
             EXPECT_EQ(r.patches.info.size(), 1u);
@@ -176,6 +178,33 @@ TEST(Segmentation, LayoutOpensCylindersWithTransversals) {
     EXPECT_EQ(count_type(v, kernels::PatchInfo::Type::Cylinder), 1);
     // Well-shaped meshes have no cylinder to open.
     EXPECT_EQ(segment(*test::corpus_mesh("eight")).transversals, 0);
+}
+
+// A tube one cell long has no vertex inside, and on symmetric meshes (quad, in: a square
+// refined; icosahedron) the levels run exactly along edges to the boundary. The transversal
+// then starts on the boundary: each opens into one exact rectangle (they stayed cylinders).
+TEST(Segmentation, LayoutOpensCylindersWithoutAnInsideVertex) {
+    const auto check = [](const SegmentationResult& r) {
+        EXPECT_GT(r.transversals, 0);
+        ASSERT_EQ(r.patches.info.size(), 1u);
+        EXPECT_EQ(r.patches.info[0].type, kernels::PatchInfo::Type::Disk);
+        EXPECT_LT(rectangle_error(r), kRectangleTol);
+        EXPECT_EQ(flipped(r), 0);
+        EXPECT_EQ(r.cut.skipped_segments, 0);
+    };
+    {
+        SCOPED_TRACE("short tube");
+        const MeshView tube = shapes::cylinder(1, 1, 16, 1);
+        const SegmentationResult r = segment(tube);
+        check(r);
+        const kernels::Trajectory& t = r.trajectories.back();  // across, boundary to boundary
+        EXPECT_EQ(t.end, kernels::Trajectory::End::Boundary);
+        EXPECT_NE(tube.V(t.start_vertex, 2), tube.V(t.end_vertex >= 0 ? t.end_vertex : t.start_vertex, 2));
+    }
+    for (const char* name : {"quad", "in", "icosahedron"}) {
+        SCOPED_TRACE(name);
+        check(segment(*test::corpus_mesh(name)));
+    }
 }
 
 TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {

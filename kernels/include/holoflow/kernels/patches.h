@@ -69,8 +69,10 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
 //! (64 at most, ties to the smaller id), the first with two curves that end on different border
 //! loops is taken (two curves at a regular vertex, more at a fold of the form: a pair of them),
 //! else the first with two that end on one loop: where the border is no straight loop that may
-//! only cut a disk off, and the cylinder left is for another call. A cylinder without either
-//! stays. Zeros are no starts.
+//! only cut a disk off, and the cylinder left is for another call. Vertices on the surface
+//! boundary with no trajectory at them come after the inside ones (a short tube has none
+//! inside): there the one curve into the patch counts, with the start's own loop as the other
+//! end. A cylinder without any such start stays. Zeros are no starts.
 //! \pre `cut` = cut_along_trajectories(mesh, tau, trajectories, ...), `border` its border
 //! flags, `patches` = compute_patches on them.  \throw InvalidInput on mismatched sizes.
 std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,

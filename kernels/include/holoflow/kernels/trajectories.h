@@ -60,7 +60,8 @@ struct TraceOptions {
 //! level u = u(zero) (vertical) or v = v(zero) (horizontal) leaves its one-ring. Traced face by
 //! face with the level's offsets carried along edges (d(head) = d(tail) + Re/Im tau), a vertex
 //! exactly at the level counting as above it (symbolic perturbation), so a curve never passes
-//! through a vertex and every face has 0 or 2 crossing edges. Stops at zero vertices (within
+//! through a vertex and every face has 0 or 2 crossing edges; a level that leaves along an
+//! inner edge to a boundary vertex is that edge (a curve without crossings). Stops at zero vertices (within
 //! 1e-9 of the local edge image), boundary edges, boundary vertices at the level, the length
 //! cap (also: all curves share 16 #F crossings, 16 #F / #curves + 64 each), or (motorcycle) an
 //! earlier trajectory: all curves advance in rounds of doubling image
