@@ -11,6 +11,8 @@
 //   integrate_form       integrate_form of the chosen holomorphic form
 //   find_zeros           find_zeros of that form
 //   trace_trajectories   trace_trajectories on the regularised form, layout mode
+//   cut_along_trajectories  cut_along_trajectories by the pipeline's curves (transversals too)
+//   compute_patches      compute_patches on that cut (flood fill, uv, per-patch measures)
 // Everything a benchmark reads is built once per level outside timing (the segmentation
 // results come from one engine::segment call); each benchmark validates one call before timing.
 //
@@ -40,11 +42,13 @@
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/cholesky.h"
 #include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/flow_cut.h"
 #include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/harmonic.h"
 #include "holoflow/kernels/holomorphic.h"
 #include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
+#include "holoflow/kernels/patches.h"
 #include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/topology.h"
 #include "holoflow/kernels/trajectories.h"
@@ -93,6 +97,10 @@ struct SegmentationInputs {
     std::vector<kernels::TrajectoryFamily> families;
     kernels::TraceOptions trace_options;
     std::size_t trajectories = 0;  // what the pipeline traced, for validation
+    std::vector<kernels::Trajectory> cut_by;  // the pipeline's curves with its transversals
+    kernels::CutMesh cut;                     // what the pipeline cut, for validation
+    std::vector<char> border;                 // its border flags
+    std::size_t patches = 0;
 };
 
 const ConformalInputs& conformal_inputs(int level) {
@@ -132,7 +140,12 @@ const SegmentationInputs& segmentation_inputs(int level) {
     // The families and options engine::segment passes in layout mode.
     in->families = {kernels::TrajectoryFamily::Vertical, kernels::TrajectoryFamily::Horizontal};
     in->trace_options.motorcycle = options.mode == engine::SegmentMode::Layout;
-    in->trajectories = r.trajectories.size();
+    in->trajectories = r.trajectories.size() - static_cast<std::size_t>(r.transversals);
+    in->cut_by = std::move(r.trajectories);
+    in->cut = std::move(r.cut);
+    in->border.assign(in->cut.mesh.n_edges(), 0);
+    for (Index e = 0; e < in->cut.mesh.n_edges(); ++e) in->border[e] = in->cut.edge_trajectory[e] != kernels::kNoBorder;
+    in->patches = r.patches.info.size();
     return *cache.emplace(level, std::move(in)).first->second;
 }
 
@@ -362,6 +375,36 @@ void BM_kernel_trace_trajectories(benchmark::State& state) {
     });
 }
 
+void BM_kernel_cut_along_trajectories(benchmark::State& state) {
+    with_inputs(state, segmentation_inputs, [&](const SegmentationInputs& in) {
+        const auto cut = [&] { return kernels::cut_along_trajectories(in.regular.mesh, in.regular.tau, in.cut_by); };
+        {  // deterministic: the pipeline's cut
+            const kernels::CutMesh c = cut();
+            if (c.mesh.F != in.cut.mesh.F || c.tau != in.cut.tau) return fail(state, "cut differs from the pipeline's");
+            state.counters["cut_faces"] = static_cast<double>(c.mesh.n_faces());
+        }
+        for (auto _ : state) {
+            const kernels::CutMesh c = cut();
+            benchmark::DoNotOptimize(c.mesh.F.data());
+        }
+    });
+}
+
+void BM_kernel_compute_patches(benchmark::State& state) {
+    with_inputs(state, segmentation_inputs, [&](const SegmentationInputs& in) {
+        const auto fill = [&] { return kernels::compute_patches(in.cut.mesh, in.cut.tau, in.border); };
+        {  // the pipeline's patches, before any fold repair
+            const kernels::Patches p = fill();
+            if (p.info.size() != in.patches) return fail(state, "patch count differs from the pipeline's");
+            state.counters["patches"] = static_cast<double>(p.info.size());
+        }
+        for (auto _ : state) {
+            const kernels::Patches p = fill();
+            benchmark::DoNotOptimize(p.face_patch.data());
+        }
+    });
+}
+
 // Levels 0 and 1 run as long as --benchmark_min_time asks; level 2 a fixed few iterations.
 // Wall time: several kernels run TBB loops, whose work the main thread's CPU time would miss.
 void register_kernel(const char* name, void (*fn)(benchmark::State&)) {
@@ -424,6 +467,8 @@ int main(int argc, char** argv) {
     register_kernel("BM_kernel_integrate_form", BM_kernel_integrate_form);
     register_kernel("BM_kernel_find_zeros", BM_kernel_find_zeros);
     register_kernel("BM_kernel_trace_trajectories", BM_kernel_trace_trajectories);
+    register_kernel("BM_kernel_cut_along_trajectories", BM_kernel_cut_along_trajectories);
+    register_kernel("BM_kernel_compute_patches", BM_kernel_compute_patches);
     benchmark::AddCustomContext("mesh", "libcgal-demo turbine.off, Loop-subdivided");
     benchmark::AddCustomContext("tbb", TBB_VERSION_STRING);
     benchmark::AddCustomContext("tbb_max_concurrency",

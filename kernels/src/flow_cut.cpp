@@ -30,6 +30,7 @@ struct Polygon {
 struct Triangle {
     std::array<Index, 3> v;
     std::array<Index, 3> cut;  // border label of edge k (v[k] -> v[k+1])
+    std::array<Complex, 3> image{};  // chart positions of v (set once v are point ids)
 };
 
 // Splits `poly` by a chord between two of its points; false if they are not both on it.
@@ -162,7 +163,9 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         if (collision_point[i] >= 0)
             landing[{trajectories[i].blocker, trajectories[i].blocker_segment}].emplace_back(
                 trajectories[i].blocker_length, collision_point[i]);
-    std::vector<std::vector<FaceSegment>> face_segments(nf);
+    // Only crossed faces get a slot (an array of #F lists would cost more than the cut itself).
+    std::vector<Index> slot_of(nf, -1), crossed;
+    std::vector<std::vector<FaceSegment>> face_segments;  // by slot
     for (Index i = 0; i < nt; ++i) {
         const Trajectory& tr = trajectories[i];
         const Index segments = tr.n_segments();
@@ -175,7 +178,13 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 std::sort(it->second.begin(), it->second.end());  // in place: one lookup per segment
                 for (const auto& [len, id] : it->second) s.inner.push_back(id);
             }
-            face_segments[tr.segment_face(mesh, j)].push_back(std::move(s));
+            const Index f = tr.segment_face(mesh, j);
+            if (slot_of[f] < 0) {
+                slot_of[f] = static_cast<Index>(crossed.size());
+                crossed.push_back(f);
+                face_segments.emplace_back();
+            }
+            face_segments[slot_of[f]].push_back(std::move(s));
         }
     }
 
@@ -188,16 +197,23 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     };
 
     // Per face: split and triangulate (each face writes its own slot).
-    std::vector<std::vector<Triangle>> face_triangles(nf);
-    std::vector<std::vector<std::pair<Index, Complex>>> face_positions(nf);
-    std::vector<Index> skipped(nf, 0);
-    par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
+    const Index n_crossed = static_cast<Index>(crossed.size());
+    std::vector<std::vector<Triangle>> face_triangles(n_crossed);  // by slot
+    std::vector<Index> skipped(n_crossed, 0);
+    par::for_each_range(static_cast<std::size_t>(n_crossed), kParallelFaces, [&](std::size_t begin, std::size_t end) {
+        // Scratch reused face after face (crossed faces are many small allocations otherwise).
         std::vector<Complex> pos;
-        for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
-            auto& segs = face_segments[f];
-            if (segs.empty()) continue;  // kept as it is by the assembly (no allocation per face)
-            Polygon poly;
-            std::vector<std::pair<Index, Complex>> local;  // point id -> chart position
+        Polygon poly;
+        std::vector<std::pair<Index, Complex>> local;  // point id -> chart position
+        std::vector<Polygon> polys;
+        std::vector<const FaceSegment*> waiting, still;
+        std::vector<Triangle> tris;
+        for (Index slot = static_cast<Index>(begin); slot < static_cast<Index>(end); ++slot) {
+            const Index f = crossed[slot];
+            auto& segs = face_segments[slot];
+            poly.points.clear();
+            poly.edge.clear();
+            local.clear();
             for (int k = 0; k < 3; ++k) {
                 const Index h = 3 * f + k;
                 poly.points.push_back(mesh.F(f, k));
@@ -227,19 +243,20 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 if (a.collision_tail != b.collision_tail) return !a.collision_tail;
                 return a.collision_tail && a.stop_length > b.stop_length;
             });
-            std::vector<Polygon> polys{poly};
-            std::vector<const FaceSegment*> waiting;
+            polys.resize(1);
+            polys[0] = poly;
+            waiting.clear();
             for (const FaceSegment& s : segs) waiting.push_back(&s);
             for (bool progress = true; progress && !waiting.empty();) {
                 progress = false;
-                std::vector<const FaceSegment*> still;
+                still.clear();
                 for (const FaceSegment* s : waiting) {
                     if (split(polys, *s)) progress = true;
                     else still.push_back(s);
                 }
                 waiting.swap(still);
             }
-            skipped[f] += static_cast<Index>(waiting.size());
+            skipped[slot] += static_cast<Index>(waiting.size());
             // Point ids to dense slots of the face's chart positions.
             std::sort(local.begin(), local.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
             local.erase(std::unique(local.begin(), local.end(),
@@ -252,12 +269,11 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                     id = static_cast<Index>(std::lower_bound(local.begin(), local.end(), id,
                                                              [](const auto& a, Index x) { return a.first < x; }) -
                                             local.begin());
-            std::vector<Triangle> tris;
+            tris.clear();
             for (const Polygon& p : polys) triangulate(p, pos, tris);
             for (Triangle& t : tris)
-                for (Index& v : t.v) v = local[v].first;
-            face_triangles[f] = std::move(tris);
-            face_positions[f] = std::move(local);
+                for (int k = 0; k < 3; ++k) t.image[k] = pos[t.v[k]], t.v[k] = local[t.v[k]].first;
+            face_triangles[slot].assign(tris.begin(), tris.end());
         }
     });
 
@@ -280,34 +296,31 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     }
     Index n_tri = 0;
     for (Index f = 0; f < nf; ++f)
-        n_tri += face_segments[f].empty() ? 1 : static_cast<Index>(face_triangles[f].size());
+        n_tri += slot_of[f] < 0 ? 1 : static_cast<Index>(face_triangles[slot_of[f]].size());
     TriangleMatrix F(n_tri, 3);
     std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
     std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));
     out.original_face.resize(n_tri);
     Index g = 0;
     for (Index f = 0; f < nf; ++f) {
-        if (face_segments[f].empty()) {
+        if (slot_of[f] < 0) {
             out.original_face[g] = f;
+            const std::array<Complex, 3> corner{chart_corner(along, f, 0), chart_corner(along, f, 1),
+                                                chart_corner(along, f, 2)};
             for (int k = 0; k < 3; ++k) {
                 const Index h = 3 * f + k;
                 F(g, k) = mesh.F(f, k);
-                along_new[3 * g + k] = chart_corner(along, f, (k + 1) % 3) - chart_corner(along, f, k);
+                along_new[3 * g + k] = corner[(k + 1) % 3] - corner[k];
                 halfedge_cut[3 * g + k] = label(h);
             }
             ++g;
             continue;
         }
-        const auto& local = face_positions[f];
-        const auto position = [&](Index id) {
-            return std::lower_bound(local.begin(), local.end(), id,
-                                    [](const auto& a, Index x) { return a.first < x; })->second;
-        };
-        for (const Triangle& t : face_triangles[f]) {
+        for (const Triangle& t : face_triangles[slot_of[f]]) {
             out.original_face[g] = f;
             for (int k = 0; k < 3; ++k) {
                 F(g, k) = t.v[k];
-                along_new[3 * g + k] = position(t.v[(k + 1) % 3]) - position(t.v[k]);
+                along_new[3 * g + k] = t.image[(k + 1) % 3] - t.image[k];
                 halfedge_cut[3 * g + k] = t.cut[k];
             }
             ++g;

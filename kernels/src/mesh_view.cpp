@@ -1,6 +1,7 @@
 #include "holoflow/kernels/mesh_view.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <string>
 
 #include "holoflow/kernels/errors.h"
@@ -46,24 +47,26 @@ HalfedgeGroups group_halfedges_by_vertex_pair(const TriangleMatrix& F, Index n_v
     std::vector<Index> bucket_start(static_cast<std::size_t>(n_vertices) + 1, 0);
     for (Index h = 0; h < n_h; ++h) ++bucket_start[std::min(tail(h), head(h)) + 1];
     for (Index v = 0; v < n_vertices; ++v) bucket_start[v + 1] += bucket_start[v];
-    HalfedgeGroups groups;
-    groups.halfedges.resize(n_h);
+    // Per bucket, keys (larger vertex, halfedge) packed in one integer: sorting them orders by
+    // the other vertex with ties by halfedge index, which keeps the grouping deterministic.
+    std::vector<std::uint64_t> key(n_h);
     {
         std::vector<Index> fill(bucket_start.begin(), bucket_start.end() - 1);
-        for (Index h = 0; h < n_h; ++h) groups.halfedges[fill[std::min(tail(h), head(h))]++] = h;
+        for (Index h = 0; h < n_h; ++h) {
+            const Index a = tail(h), b = head(h);
+            key[fill[std::min(a, b)]++] = static_cast<std::uint64_t>(std::max(a, b)) << 32 | static_cast<std::uint32_t>(h);
+        }
     }
+    HalfedgeGroups groups;
+    groups.halfedges.resize(n_h);
     groups.group_start.reserve(static_cast<std::size_t>(n_h) / 2 + 2);
     for (Index v = 0; v < n_vertices; ++v) {
-        auto begin = groups.halfedges.begin() + bucket_start[v];
-        auto end = groups.halfedges.begin() + bucket_start[v + 1];
-        auto other = [&](Index h) { return std::max(tail(h), head(h)); };
-        // Ties by halfedge index keep the grouping deterministic.
-        std::sort(begin, end, [&](Index x, Index y) {
-            return other(x) != other(y) ? other(x) < other(y) : x < y;
-        });
-        for (auto it = begin; it != end; ++it)
-            if (it == begin || other(*it) != other(*(it - 1)))
-                groups.group_start.push_back(static_cast<Index>(it - groups.halfedges.begin()));
+        const Index begin = bucket_start[v], end = bucket_start[v + 1];
+        std::sort(key.begin() + begin, key.begin() + end);
+        for (Index i = begin; i < end; ++i) {
+            groups.halfedges[i] = static_cast<Index>(key[i] & 0xffffffffu);
+            if (i == begin || key[i] >> 32 != key[i - 1] >> 32) groups.group_start.push_back(i);
+        }
     }
     groups.group_start.push_back(n_h);
     return groups;
