@@ -245,10 +245,12 @@ void integrate(ConformalWork& work) {
     ConformalResult& r = work.result;
     StageClock clock(r.timings_ms);
     const MeshView& surface = *r.surface;
+    r.form = work.options.form;
+    const Eigen::VectorXd x = r.form == FormChoice::IntegerPeriods
+                                  ? kernels::integer_form_coefficients(r.harmonic.cols())
+                                  : kernels::generic_form_coefficients(r.harmonic.cols());
     r.form_coefficients =
-        r.double_covered
-            ? kernels::even_form_coefficients(kernels::involution_matrix(*r.cover, r.homology))
-            : kernels::generic_form_coefficients(r.harmonic.cols());
+        r.double_covered ? kernels::even_form_coefficients(kernels::involution_matrix(*r.cover, r.homology), x) : x;
     // tau = sum_i d_i (omega_i + i *omega_i) with *omega_i = sum_j C(i, j) omega_j.
     const Eigen::VectorXd conjugate = r.star.star.transpose() * r.form_coefficients;
     const auto chosen_form = [&](const Eigen::MatrixXd& omega) -> Eigen::VectorXcd {
@@ -300,6 +302,10 @@ ConformalResult compute_conformal(const MeshView& input, const ConformalOptions&
     return std::move(work.result);
 }
 
+const char* form_name(FormChoice form) {
+    return form == FormChoice::IntegerPeriods ? "integer_periods" : "generic";
+}
+
 nlohmann::json conformal_report(const ConformalResult& r) {
     const int g = r.basis.genus;
     nlohmann::json period = nlohmann::json::array();
@@ -316,6 +322,8 @@ nlohmann::json conformal_report(const ConformalResult& r) {
         {"vertices", r.surface->n_vertices()},
         {"faces", r.surface->n_faces()},
         {"period_matrix", period},
+        {"form", form_name(r.form)},
+        {"form_coefficients", std::vector<double>(r.form_coefficients.begin(), r.form_coefficients.end())},
         {"wedge_det", r.star.wedge_det},
         {"wedge_integrality_error", r.star.wedge_integrality_error},
         {"star_square_error", r.star.star_square_error},

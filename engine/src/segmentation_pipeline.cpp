@@ -109,6 +109,10 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
     work.options = std::move(options);
     SegmentationResult& r = work.result;
     r.mode = work.options.mode;
+    // The paper's mode traces the vertical family alone: on a form with integer periods its
+    // leaves all close, so the critical ones are saddle connections and the patches cylinders
+    // (or rectangles against a boundary), where a generic form's leaves would be dense.
+    if (r.mode == SegmentMode::Vertical) work.options.conformal.form = FormChoice::IntegerPeriods;
     StageClock clock(r.timings_ms);
     const MeshView& input = *work.input;
 
@@ -189,6 +193,7 @@ void trace(SegmentationWork& work) {
     if (work.options.mode == SegmentMode::Layout) families.push_back(TrajectoryFamily::Horizontal);
     kernels::TraceOptions trace_options;
     trace_options.motorcycle = work.options.mode == SegmentMode::Layout;
+    trace_options.closed_leaves = r.conformal.form == FormChoice::IntegerPeriods && families.size() == 1;
     r.trajectories = kernels::trace_trajectories(r.regular.mesh, r.regular.tau, r.zero_vertices, families, trace_options);
     clock.lap("tracing");
 }
@@ -325,6 +330,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"working_genus", r.conformal.basis.genus},
         {"double_covered", r.conformal.double_covered},
         {"mode", r.mode == SegmentMode::Layout ? "layout" : "vertical"},
+        {"form", form_name(r.conformal.form)},
         {"tips", r.tips},
         {"tip_refinements", r.tip_refinements},
         {"zero_count", z.total_order},

@@ -125,6 +125,11 @@ Eigen::VectorXd generic_form_coefficients(Eigen::Index n) {
     return d;
 }
 
+Eigen::VectorXd integer_form_coefficients(Eigen::Index n) {
+    // 1.5 + cos(.) lies in [0.5, 2.5]: rounds to 1 or 2 (3 only at cos = 1, which no phase hits).
+    return generic_form_coefficients(n).array().round();
+}
+
 Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis& homology) {
     const MeshView& mesh = cover.mesh;
     HOLOFLOW_REQUIRE(static_cast<Index>(homology.closed_forms.rows()) == mesh.n_edges(),
@@ -153,10 +158,15 @@ Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis&
     return S;
 }
 
-Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution) {
+Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, const Eigen::VectorXd& x) {
     const Eigen::Index n = involution.rows();
+    HOLOFLOW_REQUIRE(involution.cols() == n && x.size() == n, "involution and coefficients disagree in size");
     const Eigen::MatrixXd plus = Eigen::MatrixXd::Identity(n, n) + involution.transpose().cast<double>();
-    return plus * generic_form_coefficients(n);
+    return plus * x;
+}
+
+Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution) {
+    return even_form_coefficients(involution, generic_form_coefficients(involution.rows()));
 }
 
 }  // namespace holoflow::kernels

@@ -18,6 +18,7 @@ using Complex = std::complex<double>;
 constexpr double kLevelTol = 1e-9;        // a vertex this close to the level (relative) is on it
 constexpr double kFirstRound = 1.0 / 32;  // first motorcycle round, in sqrt(image area)
 constexpr std::size_t kSharedCrossings = 16;  // crossings of all curves together, per face
+constexpr std::size_t kSharedClosedCrossings = 64;  // the same where every leaf closes
 
 // Per-trace tracing state between rounds.
 struct Walker {
@@ -43,9 +44,10 @@ class Tracer {
         }
         for (Index v : zero_vertices) zero_[v] = 1;
         unit_ = std::sqrt(area);
-        cap_ = options.length_cap * unit_;
         n_faces_ = static_cast<std::size_t>(mesh.n_faces());
-        max_crossings_ = 8 * n_faces_ + 64;
+        closed_leaves_ = options.closed_leaves;
+        cap_ = closed_leaves_ ? std::numeric_limits<double>::infinity() : options.length_cap * unit_;
+        max_crossings_ = (closed_leaves_ ? 2 : 8) * n_faces_ + 64;
     }
 
     double unit() const { return unit_; }
@@ -55,7 +57,8 @@ class Tracer {
     // (generically dense vertical curves on a high-genus surface would otherwise cut it into
     // hundreds of faces per input face). Set before tracing, so it depends on nothing else.
     void share_crossings(std::size_t curves) {
-        if (curves > 0) max_crossings_ = std::min(max_crossings_, kSharedCrossings * n_faces_ / curves + 64);
+        const std::size_t shared = closed_leaves_ ? kSharedClosedCrossings : kSharedCrossings;
+        if (curves > 0) max_crossings_ = std::min(max_crossings_, shared * n_faces_ / curves + 64);
     }
 
     double level(Complex z, TrajectoryFamily family) const {
@@ -180,6 +183,7 @@ class Tracer {
     std::vector<char> zero_, boundary_;
     double unit_ = 0, cap_ = 0;
     std::size_t n_faces_ = 0, max_crossings_ = 0;
+    bool closed_leaves_ = false;
 };
 
 // One segment of a trajectory inside a face, in that face's chart, with arrival lengths.
@@ -265,21 +269,25 @@ struct Event {
     }
 };
 
+// Crossing y is crossing x passed the other way (x's edge from the face beyond it, at the same place).
+bool reverse_crossing(const MeshView& mesh, const EdgeCrossing& x, const EdgeCrossing& y) {
+    return mesh.twin[x.halfedge] == y.halfedge && std::abs(x.t - (1 - y.t)) <= 1e-6;
+}
+
 // `b` runs back along `a` (same family, from a's end, the same edges crossed in opposite order
 // at the same places): all of it (b ends at a's start), or a first part when b was stopped by
-// a collision. Level curves of one family never cross, so such a b is the same curve.
+// a collision or the cap. Level curves of one family never cross, so such a b is the same curve.
 bool retraces(const MeshView& mesh, const Trajectory& a, const Trajectory& b) {
     if (a.family != b.family || a.end != Trajectory::End::Zero || b.start_vertex != a.end_vertex) return false;
     const std::size_t n = a.crossings.size(), m = b.crossings.size();
     if (b.end == Trajectory::End::Zero) {
         if (b.end_vertex != a.start_vertex || m != n) return false;
-    } else if (b.end != Trajectory::End::Collision || m > n) {
+    } else if ((b.end != Trajectory::End::Collision && b.end != Trajectory::End::LengthCap) || m > n) {
         return false;
     }
     if (m == 0) return b.first_face == a.segment_face(mesh, a.n_segments() - 1);
     for (std::size_t j = 0; j < m; ++j) {
-        const EdgeCrossing &x = a.crossings[n - 1 - j], &y = b.crossings[j];
-        if (mesh.twin[x.halfedge] != y.halfedge || std::abs(x.t - (1 - y.t)) > 1e-6) return false;
+        if (!reverse_crossing(mesh, a.crossings[n - 1 - j], b.crossings[j])) return false;
     }
     return true;
 }
@@ -298,7 +306,7 @@ void drop_reversed_duplicates(const MeshView& mesh, std::vector<Trajectory>& out
             if (copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
     }
     for (Index j = 0; j < n; ++j) {
-        if (out[j].end != Trajectory::End::Collision) continue;
+        if (out[j].end != Trajectory::End::Collision && out[j].end != Trajectory::End::LengthCap) continue;
         for (Index i = 0; i < n && copy_of[j] < 0; ++i)
             if (copy_of[i] < 0 && retraces(mesh, out[i], out[j])) copy_of[j] = i;
     }
@@ -321,6 +329,57 @@ void drop_reversed_duplicates(const MeshView& mesh, std::vector<Trajectory>& out
     for (Index j = 0; j < n; ++j)
         if (new_id[j] >= 0 && new_id[j] != j) out[new_id[j]] = std::move(out[j]);
     out.resize(kept);
+}
+
+// A saddle connection (or a closed critical loop) longer than a curve's crossing budget is
+// stopped at the cap from both of its zeros. Where the two stopped halves overlap they are one
+// curve: the earlier is completed by the later run backwards to its zero (the later then
+// retraces it and drop_reversed_duplicates drops it). Overlap is mutual, so looking up each
+// curve's last crossing among the earlier curves' crossings finds every pair.
+void join_overlapping_halves(const MeshView& mesh, std::vector<Trajectory>& out) {
+    struct Passage {
+        Index halfedge, trajectory, index;
+        bool operator<(const Passage& o) const {
+            return std::tie(halfedge, trajectory, index) < std::tie(o.halfedge, o.trajectory, o.index);
+        }
+    };
+    const Index n = static_cast<Index>(out.size());
+    std::vector<Passage> passages;
+    for (Index i = 0; i < n; ++i)
+        if (out[i].end == Trajectory::End::LengthCap)
+            for (Index k = 0; k < static_cast<Index>(out[i].crossings.size()); ++k)
+                passages.push_back({out[i].crossings[k].halfedge, i, k});
+    if (passages.empty()) return;
+    std::sort(passages.begin(), passages.end());
+    for (Index j = 0; j < n; ++j) {
+        const Trajectory& b = out[j];
+        if (b.end != Trajectory::End::LengthCap || b.crossings.empty()) continue;
+        const std::size_t m = b.crossings.size();
+        const EdgeCrossing& last = b.crossings.back();
+        const Index h = mesh.twin[last.halfedge];
+        for (auto it = std::lower_bound(passages.begin(), passages.end(), Passage{h, 0, 0});
+             it != passages.end() && it->halfedge == h && it->trajectory < j; ++it) {
+            Trajectory& a = out[it->trajectory];
+            const std::size_t p = static_cast<std::size_t>(it->index);
+            if (a.end != Trajectory::End::LengthCap || a.family != b.family) continue;
+            // a from crossing p on must run back along b, and end inside it (a stops at b's zero).
+            const std::size_t rest = a.crossings.size() - p;
+            bool overlap = rest <= m;
+            for (std::size_t q = 0; q < rest && overlap; ++q)
+                overlap = reverse_crossing(mesh, b.crossings[m - 1 - q], a.crossings[p + q]);
+            if (!overlap) continue;
+            const double at_p = a.crossings[p].length;
+            a.crossings.resize(p);
+            for (std::size_t q = 0; q < m; ++q) {
+                const EdgeCrossing& x = b.crossings[m - 1 - q];
+                a.crossings.push_back({mesh.twin[x.halfedge], 1 - x.t, at_p + (last.length - x.length)});
+            }
+            a.length = at_p + last.length;
+            a.end = Trajectory::End::Zero;
+            a.end_vertex = b.start_vertex;
+            break;
+        }
+    }
 }
 
 }  // namespace
@@ -352,6 +411,7 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
 
     if (!options.motorcycle) {
         par::for_each_index(out.size(), true, [&](std::size_t i) { tracer.advance(out[i], walkers[i], tracer.cap() * 2); });
+        join_overlapping_halves(mesh, out);
         drop_reversed_duplicates(mesh, out);
         return out;
     }
@@ -411,6 +471,7 @@ std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::Ve
         decide(last ? std::numeric_limits<double>::infinity() : until);
         if (last) break;
     }
+    join_overlapping_halves(mesh, out);
     drop_reversed_duplicates(mesh, out);
     return out;
 }

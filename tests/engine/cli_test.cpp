@@ -186,6 +186,7 @@ TEST(Cli, SegmentWritesItsFilesAndJson) {
                                         "-v' --mode vertical --json");
     ASSERT_EQ(vertical.status, 0) << vertical.err;
     EXPECT_EQ(nlohmann::json::parse(vertical.out)["mode"], "vertical");
+    EXPECT_EQ(nlohmann::json::parse(vertical.out)["form"], "integer_periods");
 }
 
 // With the extrinsic Laplacian the form is harmonic for the mesh's own cotan weights, so its

@@ -377,6 +377,38 @@ TEST(Segmentation, ReportCarriesZeroFoldAndFanCounts) {
     }
 }
 
+// The paper's mode on closed surfaces: the form has integer periods, so every vertical leaf
+// closes and each critical one is a saddle connection (or a loop back to its zero). The critical
+// graph then cuts the surface into cylinders only, which Euler's formula counts: its vertices
+// (zeros) minus its edges (trajectories) is 2 - 2g. (With a generic form these curves are dense
+// and all ran to the cap: one patch of type other.)
+TEST(Segmentation, VerticalModeCutsClosedSurfacesIntoCylinders) {
+    SegmentOptions o;
+    o.mode = SegmentMode::Vertical;
+    for (const char* name : {"eight", "femur", "elephant", "helmet", "couplingdown"}) {
+        SCOPED_TRACE(name);
+        const SegmentationResult r = segment(*test::corpus_mesh(name), o);
+        const Index g = r.input_genus;
+        EXPECT_EQ(r.conformal.form, FormChoice::IntegerPeriods);
+        EXPECT_EQ(r.zeros.total_order, 2 * g - 2);
+        for (const kernels::Trajectory& t : r.trajectories) {
+            EXPECT_EQ(t.family, kernels::TrajectoryFamily::Vertical);
+            EXPECT_EQ(t.end, kernels::Trajectory::End::Zero);
+        }
+        std::vector<Index> zeros = r.zero_vertices;
+        std::sort(zeros.begin(), zeros.end());
+        zeros.erase(std::unique(zeros.begin(), zeros.end()), zeros.end());
+        EXPECT_EQ(static_cast<Index>(zeros.size()) - static_cast<Index>(r.trajectories.size()), 2 - 2 * g);
+        const Index n = static_cast<Index>(r.patches.info.size());
+        EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Cylinder), n);
+        EXPECT_GE(n, 1);
+        EXPECT_LE(n, 3 * g - 3);  // a pants decomposition has the most
+        EXPECT_EQ(flipped(r), 0);
+        EXPECT_LT(rectangle_error(r), kRectangleTol);  // cylinders between iso-u loops
+        EXPECT_EQ(r.cut.skipped_segments, 0);
+    }
+}
+
 TEST(Segmentation, VerticalModeOnOpenSurfacesEndsAtTheBoundary) {
     const SegmentationResult r = [] {
         SegmentOptions o;

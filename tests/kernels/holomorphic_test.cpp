@@ -42,6 +42,42 @@ TEST(GenericCoefficients, DistinctAndNonzero) {
     EXPECT_GT(d.cwiseAbs().minCoeff(), 0.1);
 }
 
+TEST(IntegerCoefficients, SmallNonzeroIntegers) {
+    const Eigen::VectorXd d = integer_form_coefficients(30);
+    for (double x : d) {
+        EXPECT_EQ(x, std::round(x));
+        EXPECT_TRUE(x == 1 || x == 2) << x;
+    }
+    EXPECT_GT((d.array() == 1).count(), 0);
+    EXPECT_GT((d.array() == 2).count(), 0);  // not all equal: no extra symmetry
+}
+
+// With integer coefficients Re tau has integer periods on every generator loop (so its
+// integral is circle-valued and each level curve closes); generic coefficients have none.
+TEST(IntegerCoefficients, RealPartHasIntegerPeriods) {
+    const MeshView surface = shapes::genus_surface(2, 4);
+    engine::ConformalOptions options;
+    options.form = engine::FormChoice::IntegerPeriods;
+    const engine::ConformalResult c = engine::compute_conformal(surface, options);
+    EXPECT_EQ(c.form, engine::FormChoice::IntegerPeriods);
+    const Eigen::MatrixXd re = c.tau.real();
+    Index integer = 0;
+    for (const auto& loop : c.homology.loops) {
+        const double period = integrate_along(surface, re, loop)(0);
+        EXPECT_NEAR(period, std::round(period), kPeriodTol);
+        EXPECT_GE(std::abs(std::round(period)), 1);
+        integer += std::abs(period - std::round(period)) < kPeriodTol;
+    }
+    EXPECT_EQ(integer, 4);
+    const engine::ConformalResult g = engine::compute_conformal(surface);
+    Index generic_integer = 0;
+    for (const auto& loop : g.homology.loops) {
+        const double period = integrate_along(surface, Eigen::MatrixXd(g.tau.real()), loop)(0);
+        generic_integer += std::abs(period - std::round(period)) < 1e-3;
+    }
+    EXPECT_EQ(generic_integer, 0);
+}
+
 TEST(HolomorphicBasis, NormalisedOnCanonicalCycles) {
     const MeshView surface = shapes::genus_surface(2, 4);
     const engine::ConformalResult c = engine::compute_conformal(surface);
@@ -87,6 +123,11 @@ TEST(Involution, EvenFormsOnADoubleCover) {
     const Eigen::VectorXd d = even_form_coefficients(S);
     EXPECT_LT((S.transpose().cast<double>() * d - d).norm(), kExactTol);
     EXPECT_GT(d.norm(), 0.1);
+    // Integer x: an even integer vector.
+    const Eigen::VectorXd di = even_form_coefficients(S, integer_form_coefficients(4));
+    EXPECT_EQ(S.transpose().cast<double>() * di, di);
+    EXPECT_EQ(di, di.array().round().matrix());
+    EXPECT_GT(di.norm(), 0.5);
     // The even subspace has half the dimension: trace(S) = 0 (an orientation-reversing
     // involution swaps the two halves of H^1 of the double).
     EXPECT_EQ(S.trace(), 0);

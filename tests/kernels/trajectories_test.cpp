@@ -235,6 +235,67 @@ TEST(Trajectories, DenseCurvesShareACrossingBudget) {
     }
 }
 
+// The form (du, dv) = ((di + slope dj) / 24, height dj / 24) on a 24 x 12 torus (vertex
+// i * 12 + j) plus a small exact form, so that no two vertices share a level by symmetry
+// (a vertex exactly on a level is passed on one side by rounding, the other side when traced
+// the other way). Its periods are 1 and 12 slope / 24: for a rational slope every vertical
+// leaf closes.
+struct SlopedTorus {
+    static constexpr int kAround = 24, kAcross = 12;
+    MeshView mesh = shapes::torus(3, 1, kAround, kAcross);
+    Eigen::VectorXcd tau;
+    SlopedTorus(double slope, double height) : tau(mesh.n_edges()) {
+        const auto wrapped = [](Index from, Index to, int n) {  // -1, 0 or 1 step around
+            Index d = (to - from + n) % n;
+            return static_cast<double>(d > n / 2 ? d - n : d);
+        };
+        const auto bump = [](Index v) { return 1e-4 * std::sin(1.7 * static_cast<double>(v)); };
+        for (Index e = 0; e < mesh.n_edges(); ++e) {
+            const Index a = mesh.E(e, 0), b = mesh.E(e, 1);
+            const double di = wrapped(a / kAcross, b / kAcross, kAround), dj = wrapped(a % kAcross, b % kAcross, kAcross);
+            tau(e) = Complex(di + slope * dj + bump(b) - bump(a), height * dj) / Complex(kAround, 0);
+        }
+    }
+};
+
+// With many starts a curve's share of crossings is less than its loop, so both copies of a
+// loop (traced from its start each way) run into the cap; where they overlap they are one
+// loop, joined whole and kept once (two overlapping copies broke the cutter).
+TEST(Trajectories, CappedHalvesOfALoopAreJoined) {
+    const SlopedTorus torus(0.25, 1);  // loops of 8 turns around the tube
+    std::vector<Index> starts;
+    for (Index k = 0; k < 45; ++k) starts.push_back((k % SlopedTorus::kAround) * SlopedTorus::kAcross + k / 9);
+    const std::vector<TrajectoryFamily> vertical{TrajectoryFamily::Vertical};
+    const std::vector<Trajectory> ts = trace_trajectories(torus.mesh, torus.tau, starts, vertical);
+    const std::size_t share = 16 * static_cast<std::size_t>(torus.mesh.n_faces()) / (2 * starts.size()) + 64;
+    Index joined = 0;
+    for (const Trajectory& t : ts) {
+        EXPECT_EQ(t.end, Trajectory::End::Zero);
+        joined += t.crossings.size() > share;
+    }
+    EXPECT_GT(joined, 0);  // loops longer than a curve's share were traced whole
+    const CutMesh cut = cut_along_trajectories(torus.mesh, torus.tau, ts, {});
+    EXPECT_EQ(cut.skipped_segments, 0);
+}
+
+// Closed leaves (integer periods): no length cap, each curve may cross every face twice.
+TEST(Trajectories, ClosedLeavesHaveNoLengthCap) {
+    const SlopedTorus torus(1.0 / 12, 0.01);  // loops of 24 turns around a thin image
+    const std::vector<Index> starts{1};
+    const std::vector<TrajectoryFamily> vertical{TrajectoryFamily::Vertical};
+    TraceOptions capped;
+    capped.length_cap = 0.5;
+    EXPECT_EQ(trace_trajectories(torus.mesh, torus.tau, starts, vertical, capped).front().end,
+              Trajectory::End::LengthCap);
+    TraceOptions closed = capped;
+    closed.closed_leaves = true;
+    const std::vector<Trajectory> ts = trace_trajectories(torus.mesh, torus.tau, starts, vertical, closed);
+    ASSERT_EQ(ts.size(), 1u);  // the loop through the start, once
+    EXPECT_EQ(ts[0].end, Trajectory::End::Zero);
+    EXPECT_EQ(ts[0].end_vertex, 1);
+    EXPECT_GT(ts[0].crossings.size(), static_cast<std::size_t>(torus.mesh.n_faces()) / 2);
+}
+
 // lion's zero on a closed critical loop: the loop is traced in both directions from its zero,
 // and only one copy may stay (two copies cut a sliver patch and a segment the cutter skips).
 TEST(Trajectories, ClosedLoopsAreNotDoubledOnTheCorpus) {

@@ -28,6 +28,12 @@ class FactorizationCache;
 
 enum class LaplacianKind { IntrinsicDelaunay, Extrinsic };
 
+//! How the coefficients of the chosen form tau = sum_i d_i (omega_i + i *omega_i) are picked:
+//! generic reals (no special symmetry; vertical leaves are generically dense on a closed
+//! surface), or small integers (kernels::integer_form_coefficients: u has integer periods, so
+//! every vertical leaf closes and the vertical trajectories cut the surface into cylinders).
+enum class FormChoice { Generic, IntegerPeriods };
+
 //! A model needs more memory than the caller allows (exit status 7, kind `resource_limit`).
 struct ResourceLimit : std::runtime_error {
     using std::runtime_error::runtime_error;
@@ -41,6 +47,7 @@ constexpr Eigen::Index kSolveBlockColumns = 8;
 
 struct ConformalOptions {
     LaplacianKind laplacian = LaplacianKind::IntrinsicDelaunay;
+    FormChoice form = FormChoice::Generic;
     //! Closed input only: a cohomology basis (#E x 2g closed forms) to use instead of the
     //! tree-cotree one, e.g. carried from a coarser mesh so that period matrices compare.
     std::optional<Eigen::MatrixXd> closed_forms;
@@ -60,6 +67,7 @@ struct ConformalResult {
     Eigen::MatrixXd harmonic;                //!< #E x 2g omega_i on `surface`'s edges
     kernels::HodgeStar star;
     kernels::HolomorphicBasis basis;
+    FormChoice form = FormChoice::Generic;
     Eigen::VectorXd form_coefficients;       //!< the chosen tau = sum_i d_i (omega_i + i *omega_i)
     Eigen::VectorXcd tau;                    //!< #E chosen form
     kernels::ConformalMap map;
@@ -150,6 +158,9 @@ void run_after_prepare(ConformalWork& work, FactorizationCache* cache = nullptr)
 //! \throw InvalidInput for closed genus 0, disks and several components; SolverFailure.
 ConformalResult compute_conformal(const MeshView& mesh, const ConformalOptions& options = {},
                                   FactorizationCache* cache = nullptr);
+
+//! `generic` or `integer_periods` (the reports' `form` key).
+const char* form_name(FormChoice form);
 
 //! The `conformal.json` object (keys documented in README).
 nlohmann::json conformal_report(const ConformalResult& result);

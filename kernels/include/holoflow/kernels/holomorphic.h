@@ -68,14 +68,22 @@ struct HomologyBasis;
 //! none zero, no rational relation of small height), so the chosen form has no special symmetry.
 Eigen::VectorXd generic_form_coefficients(Eigen::Index n);
 
+//! The generic coefficients rounded to integers (each 1 or 2, none zero). A form
+//! sum_i d_i omega_i of the basis dual to the generator loops then has integer periods, so its
+//! integral u is a circle-valued function and every level curve of u closes: the vertical
+//! trajectories of tau are closed loops and saddle connections, never dense (DESIGN 2.6).
+Eigen::VectorXd integer_form_coefficients(Eigen::Index n);
+
 //! \brief Action of the cover's involution s on cohomology in the dual basis of the generator
 //! loops: S(i, j) = integral of eta_i over s(loop_j), so s*omega_i = sum_j S(i, j) omega_j.
 //! Integer and S^2 = I. \pre homology computed on cover.mesh.
 Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis& homology);
 
-//! Coefficients d (sum_i d_i omega_i) of a generic form even under s: d = (I + S^T) x with x
-//! generic, so S^T d = d. Its holomorphic completion satisfies s*tau = conj(tau) and the fixed
-//! set (the original boundary) is a horizontal trajectory.
+//! Coefficients d (sum_i d_i omega_i) of a form even under s: d = (I + S^T) x, so S^T d = d.
+//! Its holomorphic completion satisfies s*tau = conj(tau) and the fixed set (the original
+//! boundary) is a horizontal trajectory. `x`: generic_form_coefficients (the default) or
+//! integer_form_coefficients (then d is an integer vector too).
+Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, const Eigen::VectorXd& x);
 Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution);
 
 }  // namespace holoflow::kernels

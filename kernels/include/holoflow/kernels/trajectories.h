@@ -53,6 +53,12 @@ struct TraceOptions {
     bool motorcycle = false;  //!< layout mode: a trajectory stops where it hits an earlier one
     //! Length cap in units of sqrt(total image area).
     double length_cap = 16;
+    //! Every leaf of the traced families closes (the level's form has integer periods:
+    //! engine FormChoice::IntegerPeriods, vertical family), so each critical curve ends at a
+    //! zero or the boundary after crossing each face about once. No length cap then; a curve
+    //! may cross 2 #F edges, all curves together 64 #F (instead of 16 #F), which only a curve
+    //! lost in a fold the fans could not regularise reaches.
+    bool closed_leaves = false;
 };
 
 //! \brief Critical trajectories of the closed form `tau` on a mesh without flipped image
@@ -63,12 +69,13 @@ struct TraceOptions {
 //! through a vertex and every face has 0 or 2 crossing edges; a level that leaves along an
 //! inner edge to a boundary vertex is that edge (a curve without crossings). Stops at zero vertices (within
 //! 1e-9 of the local edge image), boundary edges, boundary vertices at the level, the length
-//! cap (also: all curves share 16 #F crossings, 16 #F / #curves + 64 each), or (motorcycle) an
+//! cap (also: all curves share 16 #F crossings, 16 #F / #curves + 64 each; see closed_leaves), or (motorcycle) an
 //! earlier trajectory: all curves advance in rounds of doubling image
 //! length concurrently, collisions are resolved afterwards in order of the later arrival time
 //! (ties by id), so the result does not depend on the thread count. A curve traced from both
 //! of its zeros (a saddle connection, a closed critical loop) is kept once, whole: a second copy,
-//! complete or stopped on the way, is dropped and curves it stopped stop on the kept one.
+//! complete or stopped on the way, is dropped and curves it stopped stop on the kept one; two
+//! copies that both ran into the cap and overlap are joined into the whole curve.
 //! `families`: which families to trace. \throw InvalidInput on bad zero vertices.
 std::vector<Trajectory> trace_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau,
                                            std::span<const Index> zero_vertices,
