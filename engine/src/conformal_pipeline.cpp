@@ -246,11 +246,15 @@ void integrate(ConformalWork& work) {
     StageClock clock(r.timings_ms);
     const MeshView& surface = *r.surface;
     r.form = work.options.form;
-    const Eigen::VectorXd x = r.form == FormChoice::IntegerPeriods
-                                  ? kernels::integer_form_coefficients(r.harmonic.cols())
-                                  : kernels::generic_form_coefficients(r.harmonic.cols());
-    r.form_coefficients =
-        r.double_covered ? kernels::even_form_coefficients(kernels::involution_matrix(*r.cover, r.homology), x) : x;
+    const bool integer = r.form == FormChoice::IntegerPeriods;
+    if (r.double_covered) {
+        const Eigen::MatrixXi S = kernels::involution_matrix(*r.cover, r.homology);
+        r.form_coefficients =
+            integer ? kernels::even_integer_form_coefficients(S) : kernels::even_form_coefficients(S);
+    } else {
+        r.form_coefficients = integer ? kernels::integer_form_coefficients(r.harmonic.cols())
+                                      : kernels::generic_form_coefficients(r.harmonic.cols());
+    }
     // tau = sum_i d_i (omega_i + i *omega_i) with *omega_i = sum_j C(i, j) omega_j.
     const Eigen::VectorXd conjugate = r.star.star.transpose() * r.form_coefficients;
     const auto chosen_form = [&](const Eigen::MatrixXd& omega) -> Eigen::VectorXcd {

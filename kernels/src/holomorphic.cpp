@@ -169,4 +169,17 @@ Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution) {
     return even_form_coefficients(involution, generic_form_coefficients(involution.rows()));
 }
 
+Eigen::VectorXd even_integer_form_coefficients(const Eigen::MatrixXi& involution) {
+    const Eigen::VectorXd generic = generic_form_coefficients(involution.rows());
+    // round(k g) / k tends to g, whose even part is not zero, so some k gives d != 0; each entry
+    // of d is an integer combination of entries |x| <= 2.5 k, so k = 64 is far past cancellation.
+    // The smallest such k keeps the periods, and so the leaves, short.
+    Eigen::VectorXd d;
+    for (int k = 1; k <= 64; ++k) {
+        d = even_form_coefficients(involution, (static_cast<double>(k) * generic).array().round().matrix());
+        if (d.cwiseAbs().maxCoeff() > 0) break;
+    }
+    return d;
+}
+
 }  // namespace holoflow::kernels

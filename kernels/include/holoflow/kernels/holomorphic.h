@@ -86,4 +86,9 @@ Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis&
 Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, const Eigen::VectorXd& x);
 Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution);
 
+//! An even integer vector d = (I + S^T) x with x = round(k * generic) for the smallest k >= 1
+//! that gives d != 0 (at k = 1, the 1s and 2s of integer_form_coefficients, x can be odd under
+//! s: then d = 0 and the form vanishes everywhere).
+Eigen::VectorXd even_integer_form_coefficients(const Eigen::MatrixXi& involution);
+
 }  // namespace holoflow::kernels
