@@ -193,7 +193,9 @@ void trace(SegmentationWork& work) {
     if (work.options.mode == SegmentMode::Layout) families.push_back(TrajectoryFamily::Horizontal);
     kernels::TraceOptions trace_options;
     trace_options.motorcycle = work.options.mode == SegmentMode::Layout;
-    trace_options.closed_leaves = r.conformal.form == FormChoice::IntegerPeriods && families.size() == 1;
+    // Only Re tau has integer periods: the vertical family alone closes.
+    trace_options.closed_leaves =
+        r.conformal.form == FormChoice::IntegerPeriods && work.options.mode == SegmentMode::Vertical;
     r.trajectories = kernels::trace_trajectories(r.regular.mesh, r.regular.tau, r.zero_vertices, families, trace_options);
     clock.lap("tracing");
 }

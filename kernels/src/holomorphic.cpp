@@ -125,9 +125,10 @@ Eigen::VectorXd generic_form_coefficients(Eigen::Index n) {
     return d;
 }
 
-Eigen::VectorXd integer_form_coefficients(Eigen::Index n) {
-    // 1.5 + cos(.) lies in [0.5, 2.5]: rounds to 1 or 2 (3 only at cos = 1, which no phase hits).
-    return generic_form_coefficients(n).array().round();
+Eigen::VectorXd integer_form_coefficients(Eigen::Index n, int scale) {
+    // 1.5 + cos(.) lies in [0.5, 2.5]: at scale 1 it rounds to 1 or 2 (3 only at cos = 1, which
+    // no phase hits).
+    return (static_cast<double>(scale) * generic_form_coefficients(n)).array().round();
 }
 
 Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis& homology) {
@@ -170,13 +171,12 @@ Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution) {
 }
 
 Eigen::VectorXd even_integer_form_coefficients(const Eigen::MatrixXi& involution) {
-    const Eigen::VectorXd generic = generic_form_coefficients(involution.rows());
     // round(k g) / k tends to g, whose even part is not zero, so some k gives d != 0; each entry
     // of d is an integer combination of entries |x| <= 2.5 k, so k = 64 is far past cancellation.
     // The smallest such k keeps the periods, and so the leaves, short.
     Eigen::VectorXd d;
     for (int k = 1; k <= 64; ++k) {
-        d = even_form_coefficients(involution, (static_cast<double>(k) * generic).array().round().matrix());
+        d = even_form_coefficients(involution, integer_form_coefficients(involution.rows(), k));
         if (d.cwiseAbs().maxCoeff() > 0) break;
     }
     return d;

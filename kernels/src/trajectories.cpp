@@ -45,20 +45,20 @@ class Tracer {
         for (Index v : zero_vertices) zero_[v] = 1;
         unit_ = std::sqrt(area);
         n_faces_ = static_cast<std::size_t>(mesh.n_faces());
-        closed_leaves_ = options.closed_leaves;
-        cap_ = closed_leaves_ ? std::numeric_limits<double>::infinity() : options.length_cap * unit_;
-        max_crossings_ = (closed_leaves_ ? 2 : 8) * n_faces_ + 64;
+        cap_ = options.closed_leaves ? std::numeric_limits<double>::infinity() : options.length_cap * unit_;
+        max_crossings_ = (options.closed_leaves ? 2 : 8) * n_faces_ + 64;
+        shared_per_face_ = options.closed_leaves ? kSharedClosedCrossings : kSharedCrossings;
     }
 
     double unit() const { return unit_; }
     double cap() const { return cap_; }
 
-    // The cut grows with every crossing: `curves` curves share 16 #F + 64 per curve of them
-    // (generically dense vertical curves on a high-genus surface would otherwise cut it into
-    // hundreds of faces per input face). Set before tracing, so it depends on nothing else.
+    // The cut grows with every crossing: `curves` curves share 16 #F (64 #F with closed leaves)
+    // + 64 per curve of them (generically dense vertical curves on a high-genus surface would
+    // otherwise cut it into hundreds of faces per input face). Set before tracing, so it depends
+    // on nothing else.
     void share_crossings(std::size_t curves) {
-        const std::size_t shared = closed_leaves_ ? kSharedClosedCrossings : kSharedCrossings;
-        if (curves > 0) max_crossings_ = std::min(max_crossings_, shared * n_faces_ / curves + 64);
+        if (curves > 0) max_crossings_ = std::min(max_crossings_, shared_per_face_ * n_faces_ / curves + 64);
     }
 
     double level(Complex z, TrajectoryFamily family) const {
@@ -182,8 +182,7 @@ class Tracer {
     std::vector<Complex> along_;
     std::vector<char> zero_, boundary_;
     double unit_ = 0, cap_ = 0;
-    std::size_t n_faces_ = 0, max_crossings_ = 0;
-    bool closed_leaves_ = false;
+    std::size_t n_faces_ = 0, max_crossings_ = 0, shared_per_face_ = kSharedCrossings;
 };
 
 // One segment of a trajectory inside a face, in that face's chart, with arrival lengths.

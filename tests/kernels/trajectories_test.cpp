@@ -207,26 +207,39 @@ TEST(Trajectories, TransversalStopsOnTheFirstCurveOfTheOtherFamily) {
     }
 }
 
+// The form (du, dv) = ((di + slope dj) / 24, height dj / 24) on a 24 x 12 torus (vertex
+// i * 12 + j), plus the exact form of `bump` sin(1.7 v): with a bump no two vertices share a
+// level by symmetry (a vertex exactly on a level is passed on one side by rounding, the other
+// side when traced the other way). Its periods are 1 and 12 slope / 24: for a rational slope
+// every vertical leaf closes.
+struct SlopedTorus {
+    static constexpr int kAround = 24, kAcross = 12;
+    MeshView mesh = shapes::torus(3, 1, kAround, kAcross);
+    Eigen::VectorXcd tau;
+    SlopedTorus(double slope, double height, double bump) : tau(mesh.n_edges()) {
+        const auto wrapped = [](Index from, Index to, int n) {  // -1, 0 or 1 step around
+            Index d = (to - from + n) % n;
+            return static_cast<double>(d > n / 2 ? d - n : d);
+        };
+        const auto f = [bump](Index v) { return bump * std::sin(1.7 * static_cast<double>(v)); };
+        for (Index e = 0; e < mesh.n_edges(); ++e) {
+            const Index a = mesh.E(e, 0), b = mesh.E(e, 1);
+            const double di = wrapped(a / kAcross, b / kAcross, kAround), dj = wrapped(a % kAcross, b % kAcross, kAcross);
+            tau(e) = Complex(di + slope * dj + f(b) - f(a), height * dj) / Complex(kAround, 0);
+        }
+    }
+};
+
 // A form on a torus whose vertical curves have an irrational slope: they never close and run
 // to the cap. All curves together share 16 crossings per face (plus 64 each), so the cut stays
 // a few times the mesh (dense curves on high-genus meshes cut it into millions of faces).
 TEST(Trajectories, DenseCurvesShareACrossingBudget) {
-    constexpr int kAround = 24, kAcross = 12;
-    const MeshView m = shapes::torus(3, 1, kAround, kAcross);
-    const auto wrapped = [](Index from, Index to, int n) {  // -1, 0 or 1 step around
-        Index d = (to - from + n) % n;
-        return static_cast<double>(d > n / 2 ? d - n : d);
-    };
-    Eigen::VectorXcd tau(m.n_edges());
-    for (Index e = 0; e < m.n_edges(); ++e) {
-        const Index a = m.E(e, 0), b = m.E(e, 1);  // vertex i * kAcross + j
-        const double di = wrapped(a / kAcross, b / kAcross, kAround), dj = wrapped(a % kAcross, b % kAcross, kAcross);
-        tau(e) = Complex(di + (std::sqrt(5.0) - 1) / 2 * dj, dj) / Complex(kAround, 0);
-    }
+    const SlopedTorus torus((std::sqrt(5.0) - 1) / 2, 1, 0);
+    const MeshView& m = torus.mesh;
     std::vector<Index> starts;
     for (Index v = 0; v < m.n_vertices(); v += 29) starts.push_back(v);
     const std::vector<TrajectoryFamily> vertical{TrajectoryFamily::Vertical};
-    const std::vector<Trajectory> ts = trace_trajectories(m, tau, starts, vertical);
+    const std::vector<Trajectory> ts = trace_trajectories(m, torus.tau, starts, vertical);
     ASSERT_EQ(ts.size(), 2 * starts.size());
     const std::size_t share = 16 * static_cast<std::size_t>(m.n_faces()) / ts.size() + 64;
     for (const Trajectory& t : ts) {
@@ -235,34 +248,11 @@ TEST(Trajectories, DenseCurvesShareACrossingBudget) {
     }
 }
 
-// The form (du, dv) = ((di + slope dj) / 24, height dj / 24) on a 24 x 12 torus (vertex
-// i * 12 + j) plus a small exact form, so that no two vertices share a level by symmetry
-// (a vertex exactly on a level is passed on one side by rounding, the other side when traced
-// the other way). Its periods are 1 and 12 slope / 24: for a rational slope every vertical
-// leaf closes.
-struct SlopedTorus {
-    static constexpr int kAround = 24, kAcross = 12;
-    MeshView mesh = shapes::torus(3, 1, kAround, kAcross);
-    Eigen::VectorXcd tau;
-    SlopedTorus(double slope, double height) : tau(mesh.n_edges()) {
-        const auto wrapped = [](Index from, Index to, int n) {  // -1, 0 or 1 step around
-            Index d = (to - from + n) % n;
-            return static_cast<double>(d > n / 2 ? d - n : d);
-        };
-        const auto bump = [](Index v) { return 1e-4 * std::sin(1.7 * static_cast<double>(v)); };
-        for (Index e = 0; e < mesh.n_edges(); ++e) {
-            const Index a = mesh.E(e, 0), b = mesh.E(e, 1);
-            const double di = wrapped(a / kAcross, b / kAcross, kAround), dj = wrapped(a % kAcross, b % kAcross, kAcross);
-            tau(e) = Complex(di + slope * dj + bump(b) - bump(a), height * dj) / Complex(kAround, 0);
-        }
-    }
-};
-
 // With many starts a curve's share of crossings is less than its loop, so both copies of a
 // loop (traced from its start each way) run into the cap; where they overlap they are one
 // loop, joined whole and kept once (two overlapping copies broke the cutter).
 TEST(Trajectories, CappedHalvesOfALoopAreJoined) {
-    const SlopedTorus torus(0.25, 1);  // loops of 8 turns around the tube
+    const SlopedTorus torus(0.25, 1, 1e-4);  // loops of 8 turns around the tube
     std::vector<Index> starts;
     for (Index k = 0; k < 45; ++k) starts.push_back((k % SlopedTorus::kAround) * SlopedTorus::kAcross + k / 9);
     const std::vector<TrajectoryFamily> vertical{TrajectoryFamily::Vertical};
@@ -280,7 +270,7 @@ TEST(Trajectories, CappedHalvesOfALoopAreJoined) {
 
 // Closed leaves (integer periods): no length cap, each curve may cross every face twice.
 TEST(Trajectories, ClosedLeavesHaveNoLengthCap) {
-    const SlopedTorus torus(1.0 / 12, 0.01);  // loops of 24 turns around a thin image
+    const SlopedTorus torus(1.0 / 12, 0.01, 1e-4);  // loops of 24 turns around a thin image
     const std::vector<Index> starts{1};
     const std::vector<TrajectoryFamily> vertical{TrajectoryFamily::Vertical};
     TraceOptions capped;

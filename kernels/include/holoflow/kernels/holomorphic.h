@@ -68,11 +68,11 @@ struct HomologyBasis;
 //! none zero, no rational relation of small height), so the chosen form has no special symmetry.
 Eigen::VectorXd generic_form_coefficients(Eigen::Index n);
 
-//! The generic coefficients rounded to integers (each 1 or 2, none zero). A form
+//! The generic coefficients times `scale`, rounded to integers (at scale 1 each is 1 or 2). A form
 //! sum_i d_i omega_i of the basis dual to the generator loops then has integer periods, so its
 //! integral u is a circle-valued function and every level curve of u closes: the vertical
 //! trajectories of tau are closed loops and saddle connections, never dense (DESIGN 2.6).
-Eigen::VectorXd integer_form_coefficients(Eigen::Index n);
+Eigen::VectorXd integer_form_coefficients(Eigen::Index n, int scale = 1);
 
 //! \brief Action of the cover's involution s on cohomology in the dual basis of the generator
 //! loops: S(i, j) = integral of eta_i over s(loop_j), so s*omega_i = sum_j S(i, j) omega_j.
@@ -86,9 +86,9 @@ Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis&
 Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, const Eigen::VectorXd& x);
 Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution);
 
-//! An even integer vector d = (I + S^T) x with x = round(k * generic) for the smallest k >= 1
-//! that gives d != 0 (at k = 1, the 1s and 2s of integer_form_coefficients, x can be odd under
-//! s: then d = 0 and the form vanishes everywhere).
+//! An even integer vector d = (I + S^T) x with x = integer_form_coefficients(n, k) for the
+//! smallest k >= 1 that gives d != 0 (at k = 1 the 1s and 2s can be odd under s: then d = 0 and
+//! the form vanishes everywhere).
 Eigen::VectorXd even_integer_form_coefficients(const Eigen::MatrixXi& involution);
 
 }  // namespace holoflow::kernels
