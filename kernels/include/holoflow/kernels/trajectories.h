@@ -70,8 +70,8 @@ struct TraceOptions {
 //! inner edge to a boundary vertex is that edge (a curve without crossings). Stops at zero vertices (within
 //! 1e-9 of the local edge image), boundary edges, boundary vertices at the level, the length
 //! cap (also: all curves share 16 #F crossings, 16 #F / #curves + 64 each; see
-//! closed_leaves), or (motorcycle) an earlier trajectory: all curves advance in rounds of doubling image
-//! length concurrently, collisions are resolved afterwards in order of the later arrival time
+//! closed_leaves), or (motorcycle) an earlier trajectory: all curves advance in rounds of
+//! doubling image length concurrently, collisions are resolved afterwards in order of the later arrival time
 //! (ties by id), so the result does not depend on the thread count. A curve traced from both
 //! of its zeros (a saddle connection, a closed critical loop) is kept once, whole: a second copy,
 //! complete or stopped on the way, is dropped and curves it stopped stop on the kept one; two
