@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <complex>
+#include <cstdint>
 #include <map>
 
 #include "holoflow/kernels/conformal_map.h"
@@ -22,21 +23,45 @@ struct FaceSegment {
     std::vector<Index> inner;  // collision points of other curves on it, from `from` to `to`
 };
 
+// Where a cut edge lies: on a piece of an input edge (between consecutive points on it), as
+// 2 (first piece of the edge + q) + side, side 0 along the edge's orientation; or inside a face.
+constexpr Index kInner = -1;
+
 struct Polygon {
     std::vector<Index> points;  // counter-clockwise
     std::vector<Index> edge;    // edge k (points[k] -> points[k+1]): its border label
+    std::vector<Index> piece;   // edge k: its input-edge piece, or kInner
+
+    void clear() { points.clear(), edge.clear(), piece.clear(); }
+    void push(Index point, Index label, Index on_piece) {
+        points.push_back(point), edge.push_back(label), piece.push_back(on_piece);
+    }
+    void erase(std::size_t i) {
+        const auto at = static_cast<std::ptrdiff_t>(i);
+        points.erase(points.begin() + at), edge.erase(edge.begin() + at), piece.erase(piece.begin() + at);
+    }
 };
 
 struct Triangle {
     std::array<Index, 3> v;
-    std::array<Index, 3> cut;  // border label of edge k (v[k] -> v[k+1])
+    std::array<Index, 3> cut;    // border label of edge k (v[k] -> v[k+1])
+    std::array<Index, 3> piece;  // edge k's input-edge piece, or kInner
+    std::array<Index, 3> partner{};  // inner edge k: its twin, 3 (triangle of the face) + corner
     std::array<Complex, 3> image{};  // chart positions of v (set once v are point ids)
 };
 
-// Splits `poly` by a chord between two of its points; false if they are not both on it.
-bool split(std::vector<Polygon>& polys, const FaceSegment& s) {
-    for (std::size_t k = 0; k < polys.size(); ++k) {
-        Polygon& p = polys[k];
+// The face's pieces: polys[0, n) of a pool whose vectors keep their capacity from face to face
+// (crossed faces are many small allocations otherwise), with two spare polygons for a split.
+struct PolygonPool {
+    std::vector<Polygon> polys;
+    std::size_t n = 0;
+    Polygon a, b;
+};
+
+// Splits a piece by a chord between two of its points; false if they are not both on one.
+bool split(PolygonPool& pool, const FaceSegment& s) {
+    for (std::size_t k = 0; k < pool.n; ++k) {
+        Polygon& p = pool.polys[k];
         const auto ip = std::find(p.points.begin(), p.points.end(), s.from) - p.points.begin();
         const auto iq = std::find(p.points.begin(), p.points.end(), s.to) - p.points.begin();
         const auto m = static_cast<std::ptrdiff_t>(p.points.size());
@@ -45,26 +70,33 @@ bool split(std::vector<Polygon>& polys, const FaceSegment& s) {
             p.edge[(ip + 1) % m == iq ? ip : iq] = s.trajectory;  // already an edge: mark it
             return true;
         }
-        Polygon a, b;
+        Polygon &a = pool.a, &b = pool.b;
+        a.clear();
+        b.clear();
         // a: boundary from p to q, back along the chord; b: boundary from q to p, then the chord.
-        for (auto i = ip; i != iq; i = (i + 1) % m) a.points.push_back(p.points[i]), a.edge.push_back(p.edge[i]);
-        a.points.push_back(s.to);
-        for (auto it = s.inner.rbegin(); it != s.inner.rend(); ++it) a.edge.push_back(s.trajectory), a.points.push_back(*it);
-        a.edge.push_back(s.trajectory);
-        for (auto i = iq; i != ip; i = (i + 1) % m) b.points.push_back(p.points[i]), b.edge.push_back(p.edge[i]);
-        b.points.push_back(s.from);
-        for (Index x : s.inner) b.edge.push_back(s.trajectory), b.points.push_back(x);
-        b.edge.push_back(s.trajectory);
-        polys[k] = std::move(a);
-        polys.push_back(std::move(b));
+        for (auto i = ip; i != iq; i = (i + 1) % m) a.push(p.points[i], p.edge[i], p.piece[i]);
+        Index last = s.to;
+        for (auto it = s.inner.rbegin(); it != s.inner.rend(); ++it) a.push(last, s.trajectory, kInner), last = *it;
+        a.push(last, s.trajectory, kInner);
+        for (auto i = iq; i != ip; i = (i + 1) % m) b.push(p.points[i], p.edge[i], p.piece[i]);
+        last = s.from;
+        for (Index x : s.inner) b.push(last, s.trajectory, kInner), last = x;
+        b.push(last, s.trajectory, kInner);
+        std::swap(p, a);
+        if (pool.n == pool.polys.size()) pool.polys.emplace_back();
+        std::swap(pool.polys[pool.n++], b);
         return true;
     }
     return false;
 }
 
-// Ear clipping in the chart; a fan from the first point when no proper ear is left.
-void triangulate(const Polygon& poly, const std::vector<Complex>& pos, std::vector<Triangle>& out) {
-    std::vector<Index> pts = poly.points, edge = poly.edge;
+// Ear clipping in the chart; a fan from the first point when no proper ear is left. `work` is
+// scratch.
+void triangulate(const Polygon& poly, const std::vector<Complex>& pos, Polygon& work, std::vector<Triangle>& out) {
+    work = poly;
+    const std::vector<Index>& pts = work.points;
+    std::vector<Index>& edge = work.edge;
+    std::vector<Index>& piece = work.piece;
     while (pts.size() > 3) {
         const std::size_t m = pts.size();
         double scale = 0;
@@ -83,12 +115,39 @@ void triangulate(const Polygon& poly, const std::vector<Complex>& pos, std::vect
         }
         if (ear == m) ear = 1;  // degenerate polygon: clip anyway (zero-area triangle)
         const std::size_t i0 = (ear + m - 1) % m, i2 = (ear + 1) % m;
-        out.push_back({{pts[i0], pts[ear], pts[i2]}, {edge[i0], edge[ear], kNoBorder}});
+        out.push_back({{pts[i0], pts[ear], pts[i2]}, {edge[i0], edge[ear], kNoBorder}, {piece[i0], piece[ear], kInner}});
         edge[i0] = kNoBorder;  // the diagonal i0 -> i2 replaces edges i0 and ear
-        pts.erase(pts.begin() + static_cast<std::ptrdiff_t>(ear));
-        edge.erase(edge.begin() + static_cast<std::ptrdiff_t>(ear));
+        piece[i0] = kInner;
+        work.erase(ear);
     }
-    if (pts.size() == 3) out.push_back({{pts[0], pts[1], pts[2]}, {edge[0], edge[1], edge[2]}});
+    if (pts.size() == 3)
+        out.push_back({{pts[0], pts[1], pts[2]}, {edge[0], edge[1], edge[2]}, {piece[0], piece[1], piece[2]}});
+}
+
+// Twins the inner edges of one face's triangles (chords and diagonals: inside the face, so they
+// pair among themselves); false where they do not pair up (then the caller pairs the whole cut
+// mesh by vertex pairs, which names the fault).
+bool pair_inner_edges(std::vector<Triangle>& tris, std::vector<std::pair<std::uint64_t, Index>>& key) {
+    key.clear();
+    for (std::size_t i = 0; i < tris.size(); ++i) {
+        const auto& v = tris[i].v;
+        if (v[0] == v[1] || v[1] == v[2] || v[2] == v[0]) return false;
+        for (int k = 0; k < 3; ++k) {
+            if (tris[i].piece[k] != kInner) continue;
+            const auto a = static_cast<std::uint32_t>(v[k]), b = static_cast<std::uint32_t>(v[(k + 1) % 3]);
+            key.emplace_back(std::uint64_t{std::min(a, b)} << 32 | std::max(a, b), static_cast<Index>(3 * i) + k);
+        }
+    }
+    if (key.size() % 2 != 0) return false;
+    std::sort(key.begin(), key.end());
+    for (std::size_t j = 0; j < key.size(); j += 2) {
+        if (key[j].first != key[j + 1].first || (j + 2 < key.size() && key[j + 2].first == key[j].first)) return false;
+        const Index h = key[j].second, k = key[j + 1].second;
+        if (tris[h / 3].v[h % 3] == tris[k / 3].v[k % 3]) return false;  // same direction
+        tris[h / 3].partner[h % 3] = k;
+        tris[k / 3].partner[k % 3] = h;
+    }
+    return true;
 }
 
 // The collision point of a segment that could not be inserted lies in no triangle: such points
@@ -188,6 +247,22 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         }
     }
 
+    // A face with points on an edge is split even where no curve runs inside it, so that both
+    // sides of the edge have its pieces.
+    for (Index e = 0; e < mesh.n_edges(); ++e) {
+        if (edge_points[e].empty()) continue;
+        for (const Index h : {mesh.edge_halfedge[e], mesh.twin[mesh.edge_halfedge[e]]}) {
+            if (h == kNoHalfedge || slot_of[MeshView::face(h)] >= 0) continue;
+            slot_of[MeshView::face(h)] = static_cast<Index>(crossed.size());
+            crossed.push_back(MeshView::face(h));
+            face_segments.emplace_back();
+        }
+    }
+    // Pieces of edge e (between consecutive points on it, from E(e, 0)): first_piece[e] + q.
+    std::vector<Index> first_piece(mesh.n_edges() + 1, 0);
+    for (Index e = 0; e < mesh.n_edges(); ++e)
+        first_piece[e + 1] = first_piece[e] + static_cast<Index>(edge_points[e].size()) + 1;
+
     // Chart position of every point seen from a face (corner 0 at 0).
     std::vector<Complex> along(mesh.n_halfedges());
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
@@ -200,32 +275,35 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     const Index n_crossed = static_cast<Index>(crossed.size());
     std::vector<std::vector<Triangle>> face_triangles(n_crossed);  // by slot
     std::vector<Index> skipped(n_crossed, 0);
+    std::vector<char> inner_unpaired(n_crossed, 0);
     par::for_each_range(static_cast<std::size_t>(n_crossed), kParallelFaces, [&](std::size_t begin, std::size_t end) {
         // Scratch reused face after face (crossed faces are many small allocations otherwise).
         std::vector<Complex> pos;
         Polygon poly;
         std::vector<std::pair<Index, Complex>> local;  // point id -> chart position
-        std::vector<Polygon> polys;
+        PolygonPool pool;
+        Polygon work;
         std::vector<const FaceSegment*> waiting, still;
         std::vector<Triangle> tris;
+        std::vector<std::pair<std::uint64_t, Index>> inner_keys;
         for (Index slot = static_cast<Index>(begin); slot < static_cast<Index>(end); ++slot) {
             const Index f = crossed[slot];
             auto& segs = face_segments[slot];
-            poly.points.clear();
-            poly.edge.clear();
+            poly.clear();
             local.clear();
             for (int k = 0; k < 3; ++k) {
-                const Index h = 3 * f + k;
-                poly.points.push_back(mesh.F(f, k));
-                poly.edge.push_back(label(h));
-                local.emplace_back(mesh.F(f, k), chart_corner(along, f, k));
-                const auto& list = edge_points[mesh.halfedge_edge[h]];
+                const Index h = 3 * f + k, e = mesh.halfedge_edge[h];
+                const auto& list = edge_points[e];
                 const bool forward = mesh.edge_sign(h) > 0;
-                for (std::size_t q = 0; q < list.size(); ++q) {
-                    const auto& [t_edge, id] = list[forward ? q : list.size() - 1 - q];
+                const auto n = static_cast<Index>(list.size());
+                // Piece q along h is piece q (forward) or n - q of the edge.
+                const auto piece = [&](Index q) { return 2 * (first_piece[e] + (forward ? q : n - q)) + !forward; };
+                poly.push(mesh.F(f, k), label(h), piece(0));
+                local.emplace_back(mesh.F(f, k), chart_corner(along, f, k));
+                for (Index q = 0; q < n; ++q) {
+                    const auto& [t_edge, id] = list[forward ? q : n - 1 - q];
                     const double t = forward ? t_edge : 1 - t_edge;
-                    poly.points.push_back(id);
-                    poly.edge.push_back(label(h));
+                    poly.push(id, label(h), piece(q + 1));
                     local.emplace_back(id, chart_corner(along, f, k) + t * along[h]);
                 }
             }
@@ -243,15 +321,16 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 if (a.collision_tail != b.collision_tail) return !a.collision_tail;
                 return a.collision_tail && a.stop_length > b.stop_length;
             });
-            polys.resize(1);
-            polys[0] = poly;
+            if (pool.polys.empty()) pool.polys.emplace_back();
+            pool.polys[0] = poly;
+            pool.n = 1;
             waiting.clear();
             for (const FaceSegment& s : segs) waiting.push_back(&s);
             for (bool progress = true; progress && !waiting.empty();) {
                 progress = false;
                 still.clear();
                 for (const FaceSegment* s : waiting) {
-                    if (split(polys, *s)) progress = true;
+                    if (split(pool, *s)) progress = true;
                     else still.push_back(s);
                 }
                 waiting.swap(still);
@@ -264,15 +343,16 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                         local.end());
             pos.resize(local.size());
             for (std::size_t q = 0; q < local.size(); ++q) pos[q] = local[q].second;
-            for (Polygon& p : polys)
-                for (Index& id : p.points)
+            for (std::size_t k = 0; k < pool.n; ++k)
+                for (Index& id : pool.polys[k].points)
                     id = static_cast<Index>(std::lower_bound(local.begin(), local.end(), id,
                                                              [](const auto& a, Index x) { return a.first < x; }) -
                                             local.begin());
             tris.clear();
-            for (const Polygon& p : polys) triangulate(p, pos, tris);
+            for (std::size_t k = 0; k < pool.n; ++k) triangulate(pool.polys[k], pos, work, tris);
             for (Triangle& t : tris)
                 for (int k = 0; k < 3; ++k) t.image[k] = pos[t.v[k]], t.v[k] = local[t.v[k]].first;
+            inner_unpaired[slot] = !pair_inner_edges(tris, inner_keys);
             face_triangles[slot].assign(tris.begin(), tris.end());
         }
     });
@@ -300,6 +380,10 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     TriangleMatrix F(n_tri, 3);
     std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
     std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));
+    // The pairing: pieces of input edges by their two sides, inner edges as their face paired them.
+    std::vector<Index> twin(3 * static_cast<std::size_t>(n_tri), kNoHalfedge);
+    std::vector<Index> halfedge_piece(3 * static_cast<std::size_t>(n_tri), kInner);
+    std::vector<Index> piece_halfedge(2 * static_cast<std::size_t>(first_piece.back()), kNoHalfedge);
     out.original_face.resize(n_tri);
     Index g = 0;
     for (Index f = 0; f < nf; ++f) {
@@ -312,23 +396,34 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 F(g, k) = mesh.F(f, k);
                 along_new[3 * g + k] = corner[(k + 1) % 3] - corner[k];
                 halfedge_cut[3 * g + k] = label(h);
+                halfedge_piece[3 * g + k] = 2 * first_piece[mesh.halfedge_edge[h]] + (mesh.edge_sign(h) < 0);
             }
             ++g;
             continue;
         }
+        const Index first = 3 * g;
         for (const Triangle& t : face_triangles[slot_of[f]]) {
             out.original_face[g] = f;
             for (int k = 0; k < 3; ++k) {
                 F(g, k) = t.v[k];
                 along_new[3 * g + k] = t.image[(k + 1) % 3] - t.image[k];
                 halfedge_cut[3 * g + k] = t.cut[k];
+                halfedge_piece[3 * g + k] = t.piece[k];
+                if (t.piece[k] == kInner) twin[3 * g + k] = first + t.partner[k];
             }
             ++g;
         }
     }
+    for (Index h = 0; h < 3 * n_tri; ++h)
+        if (halfedge_piece[h] != kInner) piece_halfedge[halfedge_piece[h]] = h;
+    for (Index h = 0; h < 3 * n_tri; ++h)
+        if (halfedge_piece[h] != kInner) twin[h] = piece_halfedge[halfedge_piece[h] ^ 1];
     for (Index s : skipped) out.skipped_segments += s;
     if (out.skipped_segments > 0) drop_unused_points(V, F, out.original_vertex);
-    out.mesh = make_mesh_view(std::move(V), std::move(F));
+    // Where a face's inner edges do not pair up, the pairing by vertex pairs names the fault.
+    const bool paired = std::none_of(inner_unpaired.begin(), inner_unpaired.end(), [](char c) { return c; });
+    out.mesh = paired ? make_mesh_view(std::move(V), std::move(F), std::move(twin))
+                      : make_mesh_view(std::move(V), std::move(F));
     out.tau.resize(out.mesh.n_edges());
     out.edge_trajectory.assign(out.mesh.n_edges(), kNoBorder);
     for (Index h = 0; h < out.mesh.n_halfedges(); ++h) {

@@ -114,6 +114,7 @@ TEST(Segmentation, LayoutPatchesAreRectanglesOnWellShapedMeshes) {
         if (std::string(name) != "lion") {
             EXPECT_EQ(r.cut.skipped_segments, 0);
         }
+        EXPECT_EQ(r.cut.mesh.twin, make_mesh_view(r.cut.mesh.V, r.cut.mesh.F).twin);  // cut built its pairing
         if (std::string(name) == "eight" || std::string(name) == "elephant") {
             EXPECT_EQ(r.zeros.artifact_clusters, 0);
             EXPECT_LT(rectangle_error(r), kRectangleTol);
@@ -131,6 +132,7 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
         const SegmentationResult r = segment(*test::corpus_mesh(name));
         EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
         EXPECT_EQ(flipped(r), 0);
+        EXPECT_EQ(r.cut.mesh.twin, make_mesh_view(r.cut.mesh.V, r.cut.mesh.F).twin);
         for (const kernels::PatchInfo& p : r.patches.info) {
             if (p.repaired()) {
                 EXPECT_GT(p.form_flipped_uv_triangles, 0);

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <complex>
 
 #include <Eigen/Geometry>
@@ -111,6 +112,32 @@ TEST(FlowCut, CurveThatCannotBePlacedIsSkippedAndItsPointDropped) {
         area += z;
     }
     EXPECT_NEAR(area, 1.0, kAreaTol);
+}
+
+// The cutter pairs halfedges by construction (pieces of input edges, chords inside a face); it
+// must find the pairing that matching vertex pairs over the whole cut mesh gives.
+TEST(FlowCut, PairingIsTheOneByVertexPairs) {
+    const Square square;
+    const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, blocker_stops_first());
+    EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
+}
+
+// A capped curve ends on the edge it last crossed (AC here, at X), in no segment of the face
+// behind it (A C D). That face is split at X too: the cut mesh keeps the square's four border
+// edges, with no slit along A-X-C.
+TEST(FlowCut, PointOnTheEdgeOfAFaceNoCurveEntersSplitsThatFace) {
+    const Square square;
+    Trajectory t;
+    t.start_vertex = 1;  // B
+    t.first_face = 0;
+    t.crossings = {{2, 0.5, 0.7}};  // halfedge 2 runs C -> A
+    t.end = Trajectory::End::LengthCap;
+    t.length = 0.7;
+    const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, std::vector<Trajectory>{t});
+    EXPECT_EQ(cut.mesh.n_vertices(), 5);
+    EXPECT_EQ(cut.mesh.n_faces(), 4);
+    EXPECT_EQ(std::count(cut.mesh.twin.begin(), cut.mesh.twin.end(), kNoHalfedge), 4);
+    EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
 }
 
 TEST(FlowCut, LabelsMustMatchTheEdges) {
