@@ -99,10 +99,13 @@ double triangle_distortion(double a, double b, double c, Complex t0, Complex t2)
     Eigen::Matrix2d T;  // their images
     T << t0.real(), t2.real(), t0.imag(), t2.imag();
     // Singular values of the 2x2 Jacobian from its conformal and anti-conformal parts
-    // (|q| +- |p|): exact 1 for a similarity, no cancellation.
+    // (|q| +- |p|): exact 1 for a similarity, no cancellation. sqrt, not std::hypot: this runs
+    // per face of every cut mesh, and Jacobian entries are far from overflow (an overflow gives
+    // a non-finite distortion, counted as degenerate).
     const Eigen::Matrix2d J = T * S.inverse();
-    const double conformal = std::hypot(J(0, 0) + J(1, 1), J(1, 0) - J(0, 1));
-    const double anticonformal = std::hypot(J(0, 0) - J(1, 1), J(1, 0) + J(0, 1));
+    const double q0 = J(0, 0) + J(1, 1), q1 = J(1, 0) - J(0, 1), p0 = J(0, 0) - J(1, 1), p1 = J(1, 0) + J(0, 1);
+    const double conformal = std::sqrt(q0 * q0 + q1 * q1);
+    const double anticonformal = std::sqrt(p0 * p0 + p1 * p1);
     return (conformal + anticonformal) / std::abs(conformal - anticonformal);
 }
 

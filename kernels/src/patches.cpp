@@ -385,11 +385,18 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
             (inner ? interior_halfedges : border_halfedges)[id] += 1;
         }
     }
-    // Vertices of each patch cut open.
-    UnionFind points = patch_points(mesh, border);
+    // Vertices of each patch cut open (the classes of patch_points, counted without building
+    // them): around a vertex, a fan of corners ends at each corner whose previous edge is on the
+    // border, and a vertex with no such corner is one whole ring.
     std::vector<Index> vertices(np, 0);
+    std::vector<char> fan_ends(mesh.n_vertices(), 0);
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
-        if (points.find(h) == h) ++vertices[p.face_patch[MeshView::face(h)]];
+        if (on_border(mesh, border, MeshView::prev(h))) {
+            ++vertices[p.face_patch[MeshView::face(h)]];
+            fan_ends[mesh.tail(h)] = 1;
+        }
+    for (Index v = 0; v < mesh.n_vertices(); ++v)
+        if (!fan_ends[v]) ++vertices[p.face_patch[MeshView::face(mesh.vertex_halfedge[v])]];
 
     std::vector<int> loops(np, 0);
     for (Index h0 : border_loops(mesh, border).first) ++loops[p.face_patch[MeshView::face(h0)]];
