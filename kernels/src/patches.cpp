@@ -1,6 +1,7 @@
 #include "holoflow/kernels/patches.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -24,6 +25,7 @@ constexpr double kFlipTol = 1e-12;  // signed uv area below -tol * (longest edge
 constexpr double kSideBulge = 1e-4;       // repaired borders: bulge of a side over its length
 constexpr Index kCornerCandidates = 32;  // border points tried per rectangle corner
 constexpr Index kOpeningCandidates = 64;  // start vertices tried per cylinder (each one short trace)
+constexpr double kIsoLineTol = 1e-9;      // a repaired cylinder: loop spread across, period mismatch, over the period
 
 bool flipped_uv(Complex a, Complex b, Complex c) {
     const double scale = std::max({std::norm(b - a), std::norm(c - b), std::norm(a - c)});
@@ -79,6 +81,79 @@ UnionFind patch_points(const MeshView& mesh, std::span<const char> border) {
         points.unite(h, t);  // t leaves tail(h): the next corner around it
     }
     return points;
+}
+
+// The edges between a patch's points (by their local ids), each with its cotangent weight from
+// the 3D triangles, clamped positive. Computed here, not by cotan_weights: the cut can leave
+// zero-area faces, which that refuses; they weigh 0 here.
+struct PatchEdges {
+    std::vector<std::pair<Index, Index>> pair;  // (smaller, larger) local id, sorted
+    std::vector<double> weight;
+};
+
+PatchEdges patch_edges(const MeshView& mesh, UnionFind& points, const std::vector<Index>& faces,
+                       const std::vector<Index>& local) {
+    std::vector<std::pair<std::pair<Index, Index>, double>> half;
+    for (Index f : faces) {
+        const Index v[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
+        for (int k = 0; k < 3; ++k) {
+            const Eigen::RowVector3d e1 = mesh.V.row(v[(k + 1) % 3]) - mesh.V.row(v[k]);
+            const Eigen::RowVector3d e2 = mesh.V.row(v[(k + 2) % 3]) - mesh.V.row(v[k]);
+            double cot = e1.dot(e2) / e1.cross(e2).norm();
+            if (!std::isfinite(cot)) cot = 0;
+            Index a = local[points.find(3 * f + (k + 1) % 3)], b = local[points.find(3 * f + (k + 2) % 3)];
+            if (a > b) std::swap(a, b);
+            half.push_back({{a, b}, 0.5 * cot});
+        }
+    }
+    std::sort(half.begin(), half.end(), [](const auto& p, const auto& q) { return p.first < q.first; });
+    PatchEdges out;
+    for (const auto& [pair, value] : half) {
+        if (out.pair.empty() || out.pair.back() != pair) out.pair.push_back(pair), out.weight.push_back(0);
+        out.weight.back() += value;
+    }
+    double mean = 0;
+    for (double value : out.weight) mean += std::abs(value) / static_cast<double>(out.weight.size());
+    const double floor = mean > 0 ? 1e-3 * mean : 1.0;
+    for (double& value : out.weight) value = std::max(value, floor);
+    return out;
+}
+
+// Each point not `fixed` moved to the weighted mean of its neighbours (one sparse SPD solve);
+// fixed rows of x keep their place. lift[i] (empty: all 0) is where the second point
+// of edge i lies seen from the first, minus its own x: a period across a cylinder's seam.
+bool harmonic_inside(const PatchEdges& edges, std::span<const Complex> lift, const std::vector<char>& fixed,
+                     Eigen::MatrixXd& x) {
+    const Index n = static_cast<Index>(x.rows());
+    std::vector<Index> pinned;
+    for (Index q = 0; q < n; ++q)
+        if (fixed[q]) pinned.push_back(q);
+    if (static_cast<Index>(pinned.size()) == n) return true;
+    const Index ne = static_cast<Index>(edges.pair.size());
+    EdgeMatrix E(ne, 2);
+    Eigen::MatrixXd b = x;  // fixed rows keep their place; the others sum their fixed neighbours
+    for (Index q = 0; q < n; ++q)
+        if (!fixed[q]) b.row(q).setZero();
+    for (Index i = 0; i < ne; ++i) {
+        const auto [p, q] = edges.pair[i];
+        const double w = edges.weight[i];
+        E(i, 0) = p;
+        E(i, 1) = q;
+        if (!lift.empty()) {  // sum_q w (x_q + lift_pq - x_p) = 0 at p, and lift_qp = -lift_pq
+            const Eigen::RowVector2d d(lift[i].real(), lift[i].imag());
+            if (!fixed[p]) b.row(p) += w * d;
+            if (!fixed[q]) b.row(q) -= w * d;
+        }
+        if (!fixed[p] && fixed[q]) b.row(p) += w * x.row(q);
+        if (!fixed[q] && fixed[p]) b.row(q) += w * x.row(p);
+    }
+    const LaplacianMatrix L = assemble_laplacian(n, E, edges.weight, std::move(pinned));
+    try {
+        x = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L)->solve(b);
+    } catch (const SolverFailure&) {
+        return false;
+    }
+    return true;
 }
 
 // One folded disk patch laid out again on its rectangle (see repair_folded_patches): the uv of
@@ -197,52 +272,7 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
             place(begin + j, a + s * (b - a) + 4 * s * (1 - s) * outward);
         }
     }
-    // Positive weights: cotangent weights from the 3D triangles, clamped. Computed here, not by
-    // cotan_weights: the cut can leave zero-area faces, which that refuses; they weigh 0 here.
-    std::vector<std::pair<std::pair<Index, Index>, double>> half;
-    for (Index f : faces) {
-        const Index v[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
-        for (int k = 0; k < 3; ++k) {
-            const Eigen::RowVector3d e1 = mesh.V.row(v[(k + 1) % 3]) - mesh.V.row(v[k]);
-            const Eigen::RowVector3d e2 = mesh.V.row(v[(k + 2) % 3]) - mesh.V.row(v[k]);
-            double cot = e1.dot(e2) / e1.cross(e2).norm();
-            if (!std::isfinite(cot)) cot = 0;
-            Index a = local[points.find(3 * f + (k + 1) % 3)], b = local[points.find(3 * f + (k + 2) % 3)];
-            if (a > b) std::swap(a, b);
-            half.push_back({{a, b}, 0.5 * cot});
-        }
-    }
-    std::sort(half.begin(), half.end(), [](const auto& p, const auto& q) { return p.first < q.first; });
-    std::vector<std::pair<Index, Index>> edges;
-    std::vector<double> weight;
-    for (const auto& [pair, value] : half) {
-        if (edges.empty() || edges.back() != pair) edges.push_back(pair), weight.push_back(0);
-        weight.back() += value;
-    }
-    double mean = 0;
-    for (double value : weight) mean += std::abs(value) / static_cast<double>(weight.size());
-    const double floor = mean > 0 ? 1e-3 * mean : 1.0;
-    for (double& value : weight) value = std::max(value, floor);
-    std::vector<Index> pinned;
-    for (Index q = 0; q < n; ++q)
-        if (is_border[q]) pinned.push_back(q);
-    if (static_cast<Index>(pinned.size()) < n) {
-        EdgeMatrix E(static_cast<Index>(edges.size()), 2);
-        Eigen::MatrixXd b = x;  // pinned rows keep their place; interior rows sum their border neighbours
-        for (Index i = 0; i < static_cast<Index>(edges.size()); ++i) {
-            const auto [p, q] = edges[i];
-            E(i, 0) = p;
-            E(i, 1) = q;
-            if (!is_border[p] && is_border[q]) b.row(p) += weight[i] * x.row(q);
-            if (!is_border[q] && is_border[p]) b.row(q) += weight[i] * x.row(p);
-        }
-        const LaplacianMatrix L = assemble_laplacian(n, E, weight, std::move(pinned));
-        try {
-            x = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L)->solve(b);
-        } catch (const SolverFailure&) {
-            return clear(), false;
-        }
-    }
+    if (!harmonic_inside(patch_edges(mesh, points, faces, local), {}, is_border, x)) return clear(), false;
     uv.resize(3 * faces.size());
     for (std::size_t i = 0; i < faces.size(); ++i)
         for (int k = 0; k < 3; ++k) {
@@ -251,6 +281,176 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
         }
     clear();
     return true;
+}
+
+// The form's coordinate along a loop (t[0] = 0 up to the period at t[m]) made strictly
+// increasing: each stretch where it goes back (a fold touching the loop) is replaced, from the
+// point before it to the first point beyond all of it, by 3D arc length between those two; the
+// rest stays. Empty if that cannot be done (then the caller takes arc length all along).
+std::vector<double> increasing_along(std::vector<double> t, const std::vector<double>& arc) {
+    const std::size_t m = t.size() - 1;
+    for (std::size_t i = 1; i <= m; ++i) {
+        if (t[i] > t[i - 1]) continue;
+        const std::size_t a = i - 1;
+        std::size_t b = i;
+        for (double top = t[a]; b < m && !(t[b] > top); ++b) top = std::max(top, t[b]);
+        if (!(t[b] > t[a]) || !(arc[b] > arc[a])) return {};
+        for (std::size_t k = a + 1; k < b; ++k) t[k] = t[a] + (t[b] - t[a]) * (arc[k] - arc[a]) / (arc[b] - arc[a]);
+        i = b;
+    }
+    return t;
+}
+
+// One folded cylinder patch laid out again on its flat cylinder (see repair_folded_patches):
+// the uv of corner k of faces[i] in uv[3 i + k]; false if the patch cannot be. `loops` are its
+// two border loops' first halfedges; `local` is #H scratch, all -1, and left so.
+bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, UnionFind& points,
+                       const std::vector<Index>& faces, std::array<Index, 2> loops,
+                       std::span<const Complex> corner_uv, std::vector<Index>& local, std::vector<Complex>& uv) {
+    // Points, each with the uv of its first corner as its own frame.
+    std::vector<Index> roots;
+    std::vector<Complex> frame;
+    for (Index f : faces)
+        for (int k = 0; k < 3; ++k) {
+            const Index r = points.find(3 * f + k);
+            if (local[r] < 0) local[r] = static_cast<Index>(roots.size()), roots.push_back(r), frame.push_back(corner_uv[3 * f + k]);
+        }
+    const auto clear = [&] {
+        for (Index r : roots) local[r] = -1;
+    };
+    const Index n = static_cast<Index>(roots.size());
+    // The period: the form along a border loop (the patch on its left). The integral of a closed
+    // form, so exact whatever folds inside.
+    std::array<std::vector<Index>, 2> loop;
+    std::array<Complex, 2> period{};
+    std::vector<char> is_border(n, 0);
+    for (int l = 0; l < 2; ++l)
+        for (Index e = loops[l];;) {
+            const Index q = local[points.find(e)];
+            if (is_border[q] || static_cast<Index>(loop[l].size()) >= n) return clear(), false;
+            is_border[q] = 1;
+            loop[l].push_back(e);
+            period[l] += corner_uv[MeshView::next(e)] - corner_uv[e];
+            e = next_on_border(mesh, border, e);
+            if (e == loops[l]) break;
+        }
+    const Complex pi = period[1];
+    if (!(std::abs(pi) > 0) || std::abs(period[0] + pi) > kIsoLineTol * std::abs(pi)) return clear(), false;
+    // A corner's uv is its point's frame plus a whole number of periods (the walk that
+    // integrated the form went around the core that many times more).
+    const auto turns = [&](Index corner) {
+        const Complex d = corner_uv[corner] - frame[local[points.find(corner)]];
+        return std::round((d * std::conj(pi)).real() / std::norm(pi));
+    };
+    // In the frame turned so that the period is +i: across the core is real, around it imaginary.
+    // Each loop must be an iso-line across (one real part), lower on the loop walked downwards.
+    const Complex turn = Complex(0, std::abs(pi)) / pi;
+    std::array<double, 2> level{};
+    for (int l = 0; l < 2; ++l) {
+        double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+        for (Index e : loop[l]) {
+            const double re = (corner_uv[e] * turn).real();
+            lo = std::min(lo, re), hi = std::max(hi, re);
+        }
+        level[l] = 0.5 * (lo + hi);
+        if (hi - lo > kIsoLineTol * std::abs(pi)) return clear(), false;
+    }
+    // Loop 1 is walked along +period (the patch on its left lies towards lower levels).
+    if (!(level[0] < level[1])) return clear(), false;
+    Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, 2);
+    std::vector<char> moved(n, 0);  // loop points placed away from the form's uv
+    for (int l = 0; l < 2; ++l) {
+        // Around the loop: the form's own coordinate where it moves one way, else 3D arc length.
+        std::vector<Index>& lp = loop[l];
+        const Index m = static_cast<Index>(lp.size());
+        const double sign = l == 1 ? 1 : -1, total = std::abs(pi);
+        std::vector<double> along, arc;
+        // A fold across the loop's first point leaves no increasing stretch to start from: then
+        // from the point half way round.
+        for (int attempt = 0; attempt < 2 && along.empty(); ++attempt) {
+            if (attempt == 1) std::rotate(lp.begin(), lp.begin() + m / 2, lp.end());
+            along.assign(m + 1, 0);
+            arc.assign(m + 1, 0);
+            for (Index j = 0; j < m; ++j) {
+                const Index e = lp[j];
+                along[j + 1] = along[j] + sign * ((corner_uv[MeshView::next(e)] - corner_uv[e]) * turn).imag();
+                arc[j + 1] = arc[j] + (mesh.V.row(mesh.head(e)) - mesh.V.row(mesh.tail(e))).norm();
+            }
+            along = increasing_along(std::move(along), arc);
+        }
+        if (along.empty()) {
+            if (!(arc[m] > 0)) return clear(), false;
+            along = arc;
+        }
+        // From where the form puts the loop's first point, one walk along the loop; `walk` is the
+        // form's own position on it, a whole number of periods from each corner's uv.
+        const Complex start = corner_uv[lp[0]] * turn;
+        Complex walk = corner_uv[lp[0]];
+        for (Index j = 0; j < m; ++j) {
+            const Index e = lp[j];
+            const double around = sign * total * along[j] / along[m];
+            const Complex z = Complex(level[l], start.imag() + around) / turn;
+            const double walked = std::round(((walk - corner_uv[e]) * std::conj(pi)).real() / std::norm(pi));
+            const Complex placed = z - (walked + turns(e)) * pi;  // into its point's frame
+            const Index q = local[points.find(e)];
+            x(q, 0) = placed.real();
+            x(q, 1) = placed.imag();
+            moved[q] = std::abs(placed - frame[q]) > kIsoLineTol * total;
+            walk += corner_uv[MeshView::next(e)] - corner_uv[e];
+        }
+    }
+    // Edges with their lift across the seam, from any face that has them (all agree: corners
+    // of one face are in one walk).
+    const PatchEdges edges = patch_edges(mesh, points, faces, local);
+    std::vector<Complex> lift(edges.pair.size());
+    for (Index f : faces)
+        for (int k = 0; k < 3; ++k) {
+            const Index c = 3 * f + k, d = 3 * f + (k + 1) % 3;
+            Index a = local[points.find(c)], b = local[points.find(d)];
+            double da = turns(c), db = turns(d);
+            if (a > b) std::swap(a, b), std::swap(da, db);
+            const auto it = std::lower_bound(edges.pair.begin(), edges.pair.end(), std::pair(a, b));
+            lift[it - edges.pair.begin()] = (db - da) * pi;
+        }
+    // Only around the folds first: the points within two rings of flipped faces and of loop
+    // points placed away from the form's uv move; the rest keep the form's uv (and its
+    // distortion: a layout of the whole patch squashes the cut's slivers). Where that still
+    // flips (the free region is not convex, so nothing forbids it), every inside point moves:
+    // with both loops on their lines and positive weights, no triangle flips, up to rounding.
+    const auto layout = [&](const Eigen::MatrixXd& at) {
+        uv.resize(3 * faces.size());
+        Index flips = 0;
+        for (std::size_t i = 0; i < faces.size(); ++i) {
+            for (int k = 0; k < 3; ++k) {
+                const Index c = 3 * faces[i] + k, q = local[points.find(c)];
+                uv[3 * i + k] = Complex(at(q, 0), at(q, 1)) + turns(c) * pi;
+            }
+            flips += flipped_uv(uv[3 * i], uv[3 * i + 1], uv[3 * i + 2]);
+        }
+        return flips;
+    };
+    std::vector<char> seed = moved, moves(n, 0);
+    for (Index f : faces)
+        if (flipped_uv(corner_uv[3 * f], corner_uv[3 * f + 1], corner_uv[3 * f + 2]))
+            for (int k = 0; k < 3; ++k) seed[local[points.find(3 * f + k)]] = 1;
+    for (int ring = 0; ring < 2; ++ring) {
+        for (Index f : faces) {
+            const Index a = local[points.find(3 * f)], b = local[points.find(3 * f + 1)], c = local[points.find(3 * f + 2)];
+            if (seed[a] || seed[b] || seed[c]) moves[a] = moves[b] = moves[c] = 1;
+        }
+        seed = moves;
+    }
+    Eigen::MatrixXd y = x;
+    std::vector<char> fixed(n);
+    for (Index q = 0; q < n; ++q) {
+        fixed[q] = is_border[q] || !moves[q];
+        if (!is_border[q]) y(q, 0) = frame[q].real(), y(q, 1) = frame[q].imag();
+    }
+    if (harmonic_inside(edges, lift, fixed, y) && layout(y) == 0) return clear(), true;
+    const bool solved = harmonic_inside(edges, lift, is_border, x);
+    if (solved) layout(x);
+    clear();
+    return solved;
 }
 
 // A start vertex for a cylinder's transversal.
@@ -432,18 +632,27 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
     const Index np = static_cast<Index>(p.info.size());
     std::vector<std::vector<Index>> faces(np);
     std::vector<Index> first_border(np, kNoHalfedge);
-    const auto folded_disk = [](const PatchInfo& info) {
-        return info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles > 0;
+    const auto folded = [](const PatchInfo& info) {
+        return (info.type == PatchInfo::Type::Disk || info.type == PatchInfo::Type::Cylinder) &&
+               info.flipped_uv_triangles > 0;
     };
-    if (std::none_of(p.info.begin(), p.info.end(), folded_disk)) return p;
+    if (std::none_of(p.info.begin(), p.info.end(), folded)) return p;
     for (Index f = 0; f < mesh.n_faces(); ++f) {
         const Index id = p.face_patch[f];
         HOLOFLOW_REQUIRE(id >= 0 && id < np, "face " + std::to_string(f) + " has no patch");
-        if (!folded_disk(p.info[id])) continue;
+        if (!folded(p.info[id])) continue;
         faces[id].push_back(f);
         for (int k = 0; k < 3; ++k)
             if (first_border[id] == kNoHalfedge && on_border(mesh, border, 3 * f + k)) first_border[id] = 3 * f + k;
     }
+    // A cylinder's two border loops.
+    std::vector<std::array<Index, 2>> loops(np, {kNoHalfedge, kNoHalfedge});
+    if (std::any_of(p.info.begin(), p.info.end(),
+                    [&](const PatchInfo& info) { return folded(info) && info.type == PatchInfo::Type::Cylinder; }))
+        for (Index h0 : border_loops(mesh, border).first) {
+            std::array<Index, 2>& two = loops[p.face_patch[MeshView::face(h0)]];
+            two[two[0] == kNoHalfedge ? 0 : 1] = h0;
+        }
     UnionFind points = patch_points(mesh, border);
     std::vector<Index> local(mesh.n_halfedges(), -1);
     std::vector<Complex> uv;
@@ -451,7 +660,12 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
     for (Index id = 0; id < np; ++id) {
         PatchInfo& info = p.info[id];
         if (faces[id].empty() || first_border[id] == kNoHalfedge) continue;
-        if (!embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, p.corner_uv, local, uv)) continue;
+        const bool embedded =
+            info.type == PatchInfo::Type::Disk
+                ? embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, p.corner_uv, local, uv)
+                : loops[id][1] != kNoHalfedge &&
+                      embed_on_cylinder(mesh, border, points, faces[id], loops[id], p.corner_uv, local, uv);
+        if (!embedded) continue;
         Index flips = 0;
         for (std::size_t i = 0; i < faces[id].size(); ++i) flips += flipped_uv(uv[3 * i], uv[3 * i + 1], uv[3 * i + 2]);
         if (flips >= info.flipped_uv_triangles) continue;  // rounding beat the theorem: the form's uv stays

@@ -411,6 +411,22 @@ TEST(Segmentation, VerticalModeCutsClosedSurfacesIntoCylinders) {
     }
 }
 
+// On anchor the form folds in two cylinders (zero regions the fans could not regularise): they
+// are laid out again on their flat cylinders, loops on their iso-u lines.
+TEST(Segmentation, VerticalModeRepairsFoldedCylinders) {
+    SegmentOptions o;
+    o.mode = SegmentMode::Vertical;
+    const SegmentationResult r = segment(*test::corpus_mesh("anchor"), o);
+    Index repaired = 0;
+    for (const kernels::PatchInfo& p : r.patches.info) {
+        if (p.type != kernels::PatchInfo::Type::Cylinder) continue;
+        EXPECT_EQ(p.flipped_uv_triangles, 0);
+        EXPECT_LT(p.rectangle_error, kRectangleTol);
+        repaired += p.repaired();
+    }
+    EXPECT_GT(repaired, 0);
+}
+
 TEST(Segmentation, VerticalModeOnOpenSurfacesEndsAtTheBoundary) {
     const SegmentationResult r = [] {
         SegmentOptions o;

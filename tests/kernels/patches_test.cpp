@@ -192,6 +192,97 @@ TEST(PatchRepair, EarOnOneSideGetsAnArea) {
     EXPECT_LE(p.info[0].rectangle_error, kBulge);
 }
 
+// A tube whose form runs around it (period kAround chord, real) and up it (imaginary): one
+// cylinder patch, its two loops iso-v lines. `bump` moves vertex v's image by d (an exact form
+// added: the period stays).
+struct FoldedTube {
+    static constexpr int kAround = 24, kAlong = 8;
+    MeshView mesh = shapes::cylinder(1, 2, kAround, kAlong);
+    Eigen::VectorXcd tau;
+    double period = kAround * 2 * std::sin(std::numbers::pi / kAround);
+    FoldedTube() : tau(mesh.n_edges()) {
+        const double chord = period / kAround;
+        for (Index e = 0; e < mesh.n_edges(); ++e) {
+            const Index a = mesh.E(e, 0), b = mesh.E(e, 1);
+            Index steps = (b % kAround - a % kAround + kAround) % kAround;  // around, wrapped to -1, 0, 1
+            if (steps > kAround / 2) steps -= kAround;
+            tau(e) = Complex(chord * static_cast<double>(steps), mesh.V(b, 2) - mesh.V(a, 2));
+        }
+    }
+    void bump(Index v, Complex d) {
+        for (Index e = 0; e < mesh.n_edges(); ++e)
+            tau(e) += (mesh.E(e, 1) == v ? d : Complex(0)) - (mesh.E(e, 0) == v ? d : Complex(0));
+    }
+};
+
+// Repairs the tube's one patch and checks the result: no flip, both loops on their iso-v
+// lines, each interior edge the same vector seen from both its faces (the period across the
+// seam accounted for), and the faces away from `moved` (vertices whose images were bumped)
+// with the form's own uv.
+void expect_repaired_tube(const FoldedTube& t, const std::vector<Index>& moved) {
+    const std::vector<char> border(t.mesh.n_edges(), 0);
+    const Patches folded = compute_patches(t.mesh, t.tau, border);
+    ASSERT_EQ(folded.info.size(), 1u);
+    ASSERT_EQ(folded.info[0].type, PatchInfo::Type::Cylinder);
+    ASSERT_GT(folded.info[0].flipped_uv_triangles, 0);
+    const Patches p = repair_folded_patches(t.mesh, border, folded);
+    const PatchInfo& info = p.info[0];
+    EXPECT_TRUE(info.repaired());
+    EXPECT_EQ(info.flipped_uv_triangles, 0);
+    EXPECT_GT(smallest_relative_area(t.mesh, p, 0), 1e-6);
+    EXPECT_LT(info.rectangle_error, 1e-12);
+    const auto uv = [&](Index h) { return p.corner_uv[h]; };
+    for (Index h = 0; h < t.mesh.n_halfedges(); ++h) {
+        const Index k = t.mesh.twin[h];
+        const Complex along = uv(MeshView::next(h)) - uv(h);
+        if (k != kNoHalfedge) {
+            EXPECT_NEAR(std::abs(along + uv(MeshView::next(k)) - uv(k)), 0, 1e-12) << h;
+        } else {  // on a loop: iso-v
+            EXPECT_NEAR(along.imag(), 0, 1e-12) << h;
+        }
+    }
+    // Faces beyond three rings of the bumped vertices keep the form's uv.
+    std::vector<char> near(t.mesh.n_vertices(), 0);
+    for (Index v : moved) near[v] = 1;
+    for (int ring = 0; ring < 3; ++ring) {
+        std::vector<char> grown = near;
+        for (Index f = 0; f < t.mesh.n_faces(); ++f)
+            if (near[t.mesh.F(f, 0)] || near[t.mesh.F(f, 1)] || near[t.mesh.F(f, 2)])
+                grown[t.mesh.F(f, 0)] = grown[t.mesh.F(f, 1)] = grown[t.mesh.F(f, 2)] = 1;
+        near.swap(grown);
+    }
+    Index kept = 0;
+    for (Index f = 0; f < t.mesh.n_faces(); ++f) {
+        if (near[t.mesh.F(f, 0)] || near[t.mesh.F(f, 1)] || near[t.mesh.F(f, 2)]) continue;
+        ++kept;
+        for (int k = 0; k < 3; ++k) {
+            const Complex a = p.corner_uv[3 * f + (k + 1) % 3] - p.corner_uv[3 * f + k];
+            const Complex b = folded.corner_uv[3 * f + (k + 1) % 3] - folded.corner_uv[3 * f + k];
+            EXPECT_NEAR(std::abs(a - b), 0, 1e-12) << "face " << f;
+        }
+    }
+    EXPECT_GT(kept, 0);
+}
+
+TEST(PatchRepair, FoldedCylinderIsLaidOnItsFlatCylinder) {
+    FoldedTube t;
+    // On the middle ring, all the way round (so that a fold straddles the seam where the form's
+    // walk closed around the tube), each past its neighbours: their triangles flip.
+    std::vector<Index> moved;
+    for (Index i = 0; i < FoldedTube::kAround; i += 6) moved.push_back(4 * FoldedTube::kAround + i);
+    for (Index v : moved) t.bump(v, Complex(0.6, 0.4));
+    expect_repaired_tube(t, moved);
+}
+
+// A fold that reaches a loop: the form's coordinate goes back along it. The loop keeps the
+// form's places except around the fold, where its points are spread by arc length.
+TEST(PatchRepair, CylinderFoldedAtItsLoopKeepsTheLoopOnItsLine) {
+    FoldedTube t;
+    const Index v = 7;  // on the bottom loop
+    t.bump(v, Complex(0.45, 0));
+    expect_repaired_tube(t, {v});
+}
+
 TEST(PatchRepair, RefusesPatchesOfAnotherMesh) {
     const Sheet s = sheet(4, 4);
     const std::vector<char> border(s.mesh.n_edges(), 0);

@@ -57,8 +57,12 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
 //! weights clamped positive (one sparse SPD solve). With a strictly convex border and positive
 //! weights no triangle flips or degenerates (should rounding leave as many flips as the form
 //! had, the form's uv stays). Flips, distortion and rectangle error are measured again;
-//! `form_flipped_uv_triangles` keeps the form's count. Patches that are not disks or touch
-//! themselves on their border are left as they are. Deterministic.
+//! `form_flipped_uv_triangles` keeps the form's count. A folded cylinder whose two border loops
+//! are iso-lines of one coordinate (vertical mode: iso-u) is laid out on its flat cylinder the
+//! same way: the loops stay on their lines, around the core at the form's coordinate where it
+//! moves one way along the loop, else at 3D arc length, and the interior is the same embedding
+//! with the period across the seam of the form's walk. Other patches, and patches that touch
+//! themselves on their border, are left as they are. Deterministic.
 //! \pre `patches` from compute_patches on this mesh and border.  \throw InvalidInput.
 Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border, Patches patches);
 
