@@ -83,8 +83,13 @@ UnionFind patch_points(const MeshView& mesh, std::span<const char> border) {
     return points;
 }
 
-// The edges between a patch's points (by their local ids), each with its cotangent weight from
-// the 3D triangles, clamped positive. Computed here, not by cotan_weights: the cut can leave
+// Tutte-Floater weights of a repair: the cotangent weights clamped positive (close to the form
+// where the mesh is well shaped), or all 1 (Tutte's: no weight ratio of 1e6 that rounding turns
+// into collapsed, flipped clusters; the retry where the first leaves flips).
+enum class Weights { ClampedCotan, Uniform };
+
+// The edges between a patch's points (by their local ids), each with its weight (cotangent
+// weights from the 3D triangles, clamped positive, unless uniform). Computed here, not by cotan_weights: the cut can leave
 // zero-area faces, which that refuses; they weigh 0 here.
 struct PatchEdges {
     std::vector<std::pair<Index, Index>> pair;  // (smaller, larger) local id, sorted
@@ -92,7 +97,7 @@ struct PatchEdges {
 };
 
 PatchEdges patch_edges(const MeshView& mesh, UnionFind& points, const std::vector<Index>& faces,
-                       const std::vector<Index>& local) {
+                       const std::vector<Index>& local, Weights weights) {
     std::vector<std::pair<std::pair<Index, Index>, double>> half;
     for (Index f : faces) {
         const Index v[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
@@ -115,7 +120,7 @@ PatchEdges patch_edges(const MeshView& mesh, UnionFind& points, const std::vecto
     double mean = 0;
     for (double value : out.weight) mean += std::abs(value) / static_cast<double>(out.weight.size());
     const double floor = mean > 0 ? 1e-3 * mean : 1.0;
-    for (double& value : out.weight) value = std::max(value, floor);
+    for (double& value : out.weight) value = weights == Weights::Uniform ? 1.0 : std::max(value, floor);
     return out;
 }
 
@@ -161,7 +166,8 @@ bool harmonic_inside(const PatchEdges& edges, std::span<const Complex> lift, con
 // -1, and left so.
 bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, UnionFind& points,
                         const std::vector<Index>& faces, Index first_border, const PatchInfo& info,
-                        std::span<const Complex> corner_uv, std::vector<Index>& local, std::vector<Complex>& uv) {
+                        std::span<const Complex> corner_uv, Weights weights, std::vector<Index>& local,
+                        std::vector<Complex>& uv) {
     const double w = info.width, h = info.height;
     if (!(w > 0 && h > 0)) return false;
     std::vector<Index> roots;
@@ -272,7 +278,7 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
             place(begin + j, a + s * (b - a) + 4 * s * (1 - s) * outward);
         }
     }
-    if (!harmonic_inside(patch_edges(mesh, points, faces, local), {}, is_border, x)) return clear(), false;
+    if (!harmonic_inside(patch_edges(mesh, points, faces, local, weights), {}, is_border, x)) return clear(), false;
     uv.resize(3 * faces.size());
     for (std::size_t i = 0; i < faces.size(); ++i)
         for (int k = 0; k < 3; ++k) {
@@ -306,7 +312,8 @@ std::vector<double> increasing_along(std::vector<double> t, const std::vector<do
 // two border loops' first halfedges; `local` is #H scratch, all -1, and left so.
 bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, UnionFind& points,
                        const std::vector<Index>& faces, std::array<Index, 2> loops,
-                       std::span<const Complex> corner_uv, std::vector<Index>& local, std::vector<Complex>& uv) {
+                       std::span<const Complex> corner_uv, Weights weights, std::vector<Index>& local,
+                       std::vector<Complex>& uv) {
     // Points, each with the uv of its first corner as its own frame.
     std::vector<Index> roots;
     std::vector<Complex> frame;
@@ -401,7 +408,7 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
     }
     // Edges with their lift across the seam, from any face that has them (all agree: corners
     // of one face are in one walk).
-    const PatchEdges edges = patch_edges(mesh, points, faces, local);
+    const PatchEdges edges = patch_edges(mesh, points, faces, local, weights);
     std::vector<Complex> lift(edges.pair.size());
     for (Index f : faces)
         for (int k = 0; k < 3; ++k) {
@@ -655,20 +662,29 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
         }
     UnionFind points = patch_points(mesh, border);
     std::vector<Index> local(mesh.n_halfedges(), -1);
-    std::vector<Complex> uv;
+    std::vector<Complex> uv, best;
     const std::vector<double> length = edge_lengths(mesh);
     for (Index id = 0; id < np; ++id) {
         PatchInfo& info = p.info[id];
         if (faces[id].empty() || first_border[id] == kNoHalfedge) continue;
-        const bool embedded =
-            info.type == PatchInfo::Type::Disk
-                ? embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, p.corner_uv, local, uv)
-                : loops[id][1] != kNoHalfedge &&
-                      embed_on_cylinder(mesh, border, points, faces[id], loops[id], p.corner_uv, local, uv);
-        if (!embedded) continue;
-        Index flips = 0;
-        for (std::size_t i = 0; i < faces[id].size(); ++i) flips += flipped_uv(uv[3 * i], uv[3 * i + 1], uv[3 * i + 2]);
+        // Clamped cotangent weights; where rounding still leaves flips, uniform ones; the layout
+        // with fewer flips, the first on ties.
+        Index flips = info.flipped_uv_triangles;
+        for (const Weights weights : {Weights::ClampedCotan, Weights::Uniform}) {
+            const bool embedded =
+                info.type == PatchInfo::Type::Disk
+                    ? embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, p.corner_uv,
+                                         weights, local, uv)
+                    : loops[id][1] != kNoHalfedge && embed_on_cylinder(mesh, border, points, faces[id], loops[id],
+                                                                       p.corner_uv, weights, local, uv);
+            if (!embedded) continue;
+            Index n = 0;
+            for (std::size_t i = 0; i < faces[id].size(); ++i) n += flipped_uv(uv[3 * i], uv[3 * i + 1], uv[3 * i + 2]);
+            if (n < flips) flips = n, best.swap(uv);
+            if (flips == 0) break;
+        }
         if (flips >= info.flipped_uv_triangles) continue;  // rounding beat the theorem: the form's uv stays
+        uv.swap(best);
         for (std::size_t i = 0; i < faces[id].size(); ++i) std::copy_n(&uv[3 * i], 3, &p.corner_uv[3 * faces[id][i]]);
         info.flipped_uv_triangles = flips;
         info.distortion_max = info.distortion_mean = info.rectangle_error = 0;
