@@ -20,6 +20,9 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 // Where a cylinder's border is no straight loop a transversal may only cut a disk off it; the
 // cylinder left is opened in the next round.
 constexpr int kCylinderRounds = 4;
+// Midpoint subdivisions tried where zero fans fail, while the traced mesh stays this small.
+constexpr int kMaxFanRefinements = 2;
+constexpr Index kMaxFanRefinedFaces = 20000;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -133,12 +136,13 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
     return work;
 }
 
-void zeros(SegmentationWork& work) {
+namespace {
+
+// The zeros of the finished conformal result's form, and their clusters on the traced surface.
+void locate_zeros(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     r.conformal = std::move(work.conformal.result);
     work.conformal = {};
-    r.timings_ms.insert(r.timings_ms.end(), r.conformal.timings_ms.begin(), r.conformal.timings_ms.end());
-    StageClock clock(r.timings_ms);
     // Saddles are counted where the form is harmonic: on the intrinsic Delaunay triangulation
     // the Laplacian was built on (its flips replayed on tau), else on the mesh with its own
     // cotan weights.
@@ -147,25 +151,81 @@ void zeros(SegmentationWork& work) {
     zero_options.intrinsic_delaunay = zero_options.triangulation != nullptr;
     r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau, zero_options);
     r.conformal.intrinsic.reset();  // nothing after the zeros needs it
+    work.regions.clear();
     if (!r.is_torus()) work.regions = zero_regions(r);
+}
+
+// Zero fans on the traced surface (the form restricted to the first copy of a double cover).
+void regularise(SegmentationWork& work) {
+    SegmentationResult& r = work.result;
+    const MeshView& traced = *r.traced_input;
+    const Eigen::VectorXcd tau = r.conformal.double_covered
+                                     ? restrict_to_first_copy(traced, *r.conformal.surface, r.conformal.tau)
+                                     : r.conformal.tau;
+    r.regular = r.is_torus() ? kernels::unregularised(traced, tau)  // its homology cut graph must stay
+                             : kernels::regularise_zeros(traced, tau, work.regions);
+}
+
+}  // namespace
+
+void zeros(SegmentationWork& work) {
+    SegmentationResult& r = work.result;
+    const StageTimes conformal_times = work.conformal.result.timings_ms;
+    r.timings_ms.insert(r.timings_ms.end(), conformal_times.begin(), conformal_times.end());
+    StageClock clock(r.timings_ms);
+    locate_zeros(work);
     clock.lap("zeros");
 }
 
 void fans(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
-    const MeshView& traced = *r.traced_input;
-    const Eigen::VectorXcd tau = r.conformal.double_covered
-                                     ? restrict_to_first_copy(traced, *r.conformal.surface, r.conformal.tau)
-                                     : r.conformal.tau;
-    const std::vector<kernels::ZeroRegion>& regions = work.regions;
-    if (r.is_torus()) {
-        // No zeros, and the torus opens along its homology cut graph, whose edges must stay.
-        r.regular = kernels::unregularised(traced, tau);
+    regularise(work);
+    if (r.is_torus()) {  // no zeros
         clock.lap("zero_fans");
         return;
     }
-    r.regular = kernels::regularise_zeros(traced, tau, regions);
+    // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
+    // too few: a patch around it winds twice, or the form's uv folds there. On a small mesh the
+    // zeros get room on its midpoint subdivision (same shape, same vertex ids): the conformal
+    // stage, the zeros and the fans run again there, while regions fail and it stays small; the
+    // attempt with the fewest failed regions is kept (the first on ties). The time counts as
+    // the fans'.
+    if (r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxFanRefinedFaces) {
+        struct Attempt {
+            std::shared_ptr<const MeshView> traced;
+            ConformalResult conformal;
+            kernels::ZeroSet zeros;
+            std::vector<kernels::ZeroRegion> regions;
+            kernels::RegularisedForm regular;
+            int refinements;
+        };
+        Attempt best{r.traced_input, std::move(r.conformal), std::move(r.zeros), std::move(work.regions),
+                     std::move(r.regular), 0};
+        std::shared_ptr<const MeshView> traced = best.traced;
+        for (int refinement = 1; refinement <= kMaxFanRefinements && best.regular.failed_regions > 0 &&
+                                 4 * traced->n_faces() <= kMaxFanRefinedFaces;
+             ++refinement) {
+            traced = std::make_shared<const MeshView>(kernels::subdivide_midpoint(*traced));
+            const kernels::Topology topology = kernels::compute_topology(*traced);
+            work.conformal = conformal_stage::prepare(traced, work.options.conformal, &topology);
+            conformal_stage::run_after_prepare(work.conformal, nullptr);  // a new pattern: no cache
+            r.traced_input = traced;
+            locate_zeros(work);
+            regularise(work);
+            if (r.regular.failed_regions < best.regular.failed_regions)
+                best = {traced, std::move(r.conformal), std::move(r.zeros), std::move(work.regions),
+                        std::move(r.regular), refinement};
+        }
+        r.traced_input = std::move(best.traced);
+        r.conformal = std::move(best.conformal);
+        r.zeros = std::move(best.zeros);
+        work.regions = std::move(best.regions);
+        r.regular = std::move(best.regular);
+        r.fan_refinements = best.refinements;
+    }
+    const MeshView& traced = *r.traced_input;
+    const std::vector<kernels::ZeroRegion>& regions = work.regions;
 
     // Starts: each zero's fan centre, or (fan failed) its cluster's best vertex.
     std::vector<Index> regular_of(traced.n_vertices(), -1);
@@ -335,6 +395,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"form", form_name(r.conformal.form)},
         {"tips", r.tips},
         {"tip_refinements", r.tip_refinements},
+        {"fan_refinements", r.fan_refinements},
         {"zero_count", z.total_order},
         {"zero_index_total", z.total_index},
         {"zeros", zeros},
