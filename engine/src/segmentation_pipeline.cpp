@@ -20,8 +20,9 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 // Where a cylinder's border is no straight loop a transversal may only cut a disk off it; the
 // cylinder left is opened in the next round.
 constexpr int kCylinderRounds = 4;
-// Midpoint subdivisions tried where zero fans fail, while the traced mesh stays this small.
-constexpr int kMaxFanRefinements = 2;
+// Midpoint subdivisions tried where zero fans fail, while the refined traced mesh stays this
+// small (one: a second one cost oblong-shuffled 25x its time and still left a region failed).
+constexpr int kMaxFanRefinements = 1;
 constexpr Index kMaxFanRefinedFaces = 20000;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
@@ -188,9 +189,8 @@ void fans(SegmentationWork& work) {
     // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
     // too few: a patch around it winds twice, or the form's uv folds there. On a small mesh the
     // zeros get room on its midpoint subdivision (same shape, same vertex ids): the conformal
-    // stage, the zeros and the fans run again there, while regions fail and it stays small; the
-    // attempt with the fewest failed regions is kept (the first on ties). The time counts as
-    // the fans'.
+    // stage, the zeros and the fans run again there; the attempt with the fewest failed regions
+    // is kept (the first on ties). The time counts as the fans'.
     if (r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxFanRefinedFaces) {
         struct Attempt {
             std::shared_ptr<const MeshView> traced;
@@ -206,17 +206,24 @@ void fans(SegmentationWork& work) {
         for (int refinement = 1; refinement <= kMaxFanRefinements && best.regular.failed_regions > 0 &&
                                  4 * traced->n_faces() <= kMaxFanRefinedFaces;
              ++refinement) {
-            traced = std::make_shared<const MeshView>(kernels::subdivide_midpoint(*traced));
-            const kernels::Topology topology = kernels::compute_topology(*traced);
-            work.conformal = conformal_stage::prepare(traced, work.options.conformal, &topology);
-            conformal_stage::run_after_prepare(work.conformal, nullptr);  // a new pattern: no cache
-            r.traced_input = traced;
-            locate_zeros(work);
-            regularise(work);
+            try {
+                traced = std::make_shared<const MeshView>(kernels::subdivide_midpoint(*traced));
+                const kernels::Topology topology = kernels::compute_topology(*traced);
+                work.conformal = conformal_stage::prepare(traced, work.options.conformal, &topology);
+                conformal_stage::run_after_prepare(work.conformal, nullptr);  // a new pattern: no cache
+                r.traced_input = traced;
+                locate_zeros(work);
+                regularise(work);
+            } catch (const InvalidInput&) {  // the attempts so far stand
+                break;
+            } catch (const SolverFailure&) {
+                break;
+            }
             if (r.regular.failed_regions < best.regular.failed_regions)
                 best = {traced, std::move(r.conformal), std::move(r.zeros), std::move(work.regions),
                         std::move(r.regular), refinement};
         }
+        work.conformal = {};
         r.traced_input = std::move(best.traced);
         r.conformal = std::move(best.conformal);
         r.zeros = std::move(best.zeros);

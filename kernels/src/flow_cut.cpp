@@ -414,14 +414,19 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
             ++g;
         }
     }
-    for (Index h = 0; h < 3 * n_tri; ++h)
-        if (halfedge_piece[h] != kInner) piece_halfedge[halfedge_piece[h]] = h;
+    bool pieces_once = true;  // each side of each piece in one triangle (else a degenerate split)
+    for (Index h = 0; h < 3 * n_tri; ++h) {
+        if (halfedge_piece[h] == kInner) continue;
+        pieces_once = pieces_once && piece_halfedge[halfedge_piece[h]] == kNoHalfedge;
+        piece_halfedge[halfedge_piece[h]] = h;
+    }
     for (Index h = 0; h < 3 * n_tri; ++h)
         if (halfedge_piece[h] != kInner) twin[h] = piece_halfedge[halfedge_piece[h] ^ 1];
     for (Index s : skipped) out.skipped_segments += s;
     if (out.skipped_segments > 0) drop_unused_points(V, F, out.original_vertex);
-    // Where a face's inner edges do not pair up, the pairing by vertex pairs names the fault.
-    const bool paired = std::none_of(inner_unpaired.begin(), inner_unpaired.end(), [](char c) { return c; });
+    // Where the construction does not pair up, the pairing by vertex pairs names the fault.
+    const bool paired =
+        pieces_once && std::none_of(inner_unpaired.begin(), inner_unpaired.end(), [](char c) { return c; });
     out.mesh = paired ? make_mesh_view(std::move(V), std::move(F), std::move(twin))
                       : make_mesh_view(std::move(V), std::move(F));
     out.tau.resize(out.mesh.n_edges());
