@@ -283,6 +283,20 @@ TEST(PatchRepair, CylinderFoldedAtItsLoopKeepsTheLoopOnItsLine) {
     expect_repaired_tube(t, {v});
 }
 
+// The same at every loop point in turn, so that for one of them the fold lies across the point
+// the loop walk starts from: there the form's coordinate goes back at once and ends beyond the
+// period, and the loop is placed from the point half way round.
+TEST(PatchRepair, CylinderFoldedAnywhereOnALoop) {
+    constexpr Index kAround = FoldedTube::kAround, kTop = FoldedTube::kAlong * kAround;
+    for (Index i = 0; i < 2 * kAround; ++i) {
+        const Index v = i < kAround ? i : kTop + i - kAround;
+        SCOPED_TRACE(v);
+        FoldedTube t;
+        t.bump(v, Complex(0.45, 0));
+        expect_repaired_tube(t, {v});
+    }
+}
+
 TEST(PatchRepair, RefusesPatchesOfAnotherMesh) {
     const Sheet s = sheet(4, 4);
     const std::vector<char> border(s.mesh.n_edges(), 0);
