@@ -430,12 +430,10 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     out.mesh = paired ? make_mesh_view(std::move(V), std::move(F), std::move(twin))
                       : make_mesh_view(std::move(V), std::move(F));
     out.tau.resize(out.mesh.n_edges());
+    for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along_new[out.mesh.edge_halfedge[e]];
     out.edge_trajectory.assign(out.mesh.n_edges(), kNoBorder);
-    for (Index h = 0; h < out.mesh.n_halfedges(); ++h) {
-        const Index e = out.mesh.halfedge_edge[h];
-        if (out.mesh.edge_halfedge[e] == h) out.tau(e) = along_new[h];
-        if (halfedge_cut[h] != kNoBorder) out.edge_trajectory[e] = halfedge_cut[h];
-    }
+    for (Index h = 0; h < out.mesh.n_halfedges(); ++h)
+        if (halfedge_cut[h] != kNoBorder) out.edge_trajectory[out.mesh.halfedge_edge[h]] = halfedge_cut[h];
     return out;
 }
 
