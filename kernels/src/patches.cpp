@@ -83,21 +83,46 @@ UnionFind patch_points(const MeshView& mesh, std::span<const char> border) {
     return points;
 }
 
-// Tutte-Floater weights of a repair: the cotangent weights clamped positive (close to the form
-// where the mesh is well shaped), or all 1 (Tutte's: no weight ratio of 1e6 that rounding turns
-// into collapsed, flipped clusters; the retry where the first leaves flips).
-enum class Weights { ClampedCotan, Uniform };
+// The points of one patch (the classes of patch_points its corners fall in), numbered 0, 1, ..
+// in the order its faces meet them, through `local` (#H scratch, all -1, and left so when this
+// goes).
+class PatchPoints {
+ public:
+    PatchPoints(UnionFind& points, const std::vector<Index>& faces, std::vector<Index>& local)
+        : points_(points), local_(local) {
+        for (Index f : faces)
+            for (int k = 0; k < 3; ++k) {
+                const Index r = points.find(3 * f + k);
+                if (local[r] < 0) local[r] = size(), roots_.push_back(r), first_corner_.push_back(3 * f + k);
+            }
+    }
+    ~PatchPoints() {
+        for (Index r : roots_) local_[r] = -1;
+    }
+    PatchPoints(const PatchPoints&) = delete;
+    PatchPoints& operator=(const PatchPoints&) = delete;
 
-// The edges between a patch's points (by their local ids), each with its weight (cotangent
-// weights from the 3D triangles, clamped positive, unless uniform). Computed here, not by cotan_weights: the cut can leave
-// zero-area faces, which that refuses; they weigh 0 here.
+    Index size() const { return static_cast<Index>(roots_.size()); }
+    //! The point of a corner (halfedge leaving it).
+    Index of(Index corner) const { return local_[points_.find(corner)]; }
+    //! The first corner (in face order) at point q.
+    Index first_corner(Index q) const { return first_corner_[q]; }
+
+ private:
+    UnionFind& points_;
+    std::vector<Index>& local_;
+    std::vector<Index> roots_, first_corner_;
+};
+
+// The edges between a patch's points, each with its cotangent weight from the 3D triangles,
+// clamped positive. Computed here, not by cotan_weights: the cut can leave zero-area faces,
+// which that refuses; they weigh 0 here.
 struct PatchEdges {
-    std::vector<std::pair<Index, Index>> pair;  // (smaller, larger) local id, sorted
+    std::vector<std::pair<Index, Index>> pair;  // (smaller, larger) point, sorted
     std::vector<double> weight;
 };
 
-PatchEdges patch_edges(const MeshView& mesh, UnionFind& points, const std::vector<Index>& faces,
-                       const std::vector<Index>& local, Weights weights) {
+PatchEdges patch_edges(const MeshView& mesh, const PatchPoints& points, const std::vector<Index>& faces) {
     std::vector<std::pair<std::pair<Index, Index>, double>> half;
     for (Index f : faces) {
         const Index v[3] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
@@ -106,7 +131,7 @@ PatchEdges patch_edges(const MeshView& mesh, UnionFind& points, const std::vecto
             const Eigen::RowVector3d e2 = mesh.V.row(v[(k + 2) % 3]) - mesh.V.row(v[k]);
             double cot = e1.dot(e2) / e1.cross(e2).norm();
             if (!std::isfinite(cot)) cot = 0;
-            Index a = local[points.find(3 * f + (k + 1) % 3)], b = local[points.find(3 * f + (k + 2) % 3)];
+            Index a = points.of(3 * f + (k + 1) % 3), b = points.of(3 * f + (k + 2) % 3);
             if (a > b) std::swap(a, b);
             half.push_back({{a, b}, 0.5 * cot});
         }
@@ -120,15 +145,15 @@ PatchEdges patch_edges(const MeshView& mesh, UnionFind& points, const std::vecto
     double mean = 0;
     for (double value : out.weight) mean += std::abs(value) / static_cast<double>(out.weight.size());
     const double floor = mean > 0 ? 1e-3 * mean : 1.0;
-    for (double& value : out.weight) value = weights == Weights::Uniform ? 1.0 : std::max(value, floor);
+    for (double& value : out.weight) value = std::max(value, floor);
     return out;
 }
 
-// Each point not `fixed` moved to the weighted mean of its neighbours (one sparse SPD solve);
-// fixed rows of x keep their place. lift[i] (empty: all 0) is where the second point
+// Each point not `fixed` moved to the mean of its neighbours with the edges' `weight` (one sparse
+// SPD solve); fixed rows of x keep their place. lift[i] (empty: all 0) is where the second point
 // of edge i lies seen from the first, minus its own x: a period across a cylinder's seam.
-bool harmonic_inside(const PatchEdges& edges, std::span<const Complex> lift, const std::vector<char>& fixed,
-                     Eigen::MatrixXd& x) {
+bool harmonic_inside(const PatchEdges& edges, std::span<const double> weight, std::span<const Complex> lift,
+                     const std::vector<char>& fixed, Eigen::MatrixXd& x) {
     const Index n = static_cast<Index>(x.rows());
     std::vector<Index> pinned;
     for (Index q = 0; q < n; ++q)
@@ -141,7 +166,7 @@ bool harmonic_inside(const PatchEdges& edges, std::span<const Complex> lift, con
         if (!fixed[q]) b.row(q).setZero();
     for (Index i = 0; i < ne; ++i) {
         const auto [p, q] = edges.pair[i];
-        const double w = edges.weight[i];
+        const double w = weight[i];
         E(i, 0) = p;
         E(i, 1) = q;
         if (!lift.empty()) {  // sum_q w (x_q + lift_pq - x_p) = 0 at p, and lift_qp = -lift_pq
@@ -152,7 +177,7 @@ bool harmonic_inside(const PatchEdges& edges, std::span<const Complex> lift, con
         if (!fixed[p] && fixed[q]) b.row(p) += w * x.row(q);
         if (!fixed[q] && fixed[p]) b.row(q) += w * x.row(p);
     }
-    const LaplacianMatrix L = assemble_laplacian(n, E, edges.weight, std::move(pinned));
+    const LaplacianMatrix L = assemble_laplacian(n, E, weight, std::move(pinned));
     try {
         x = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L)->solve(b);
     } catch (const SolverFailure&) {
@@ -161,38 +186,55 @@ bool harmonic_inside(const PatchEdges& edges, std::span<const Complex> lift, con
     return true;
 }
 
+// Flipped triangles of a layout (corner k of triangle i at uv[3 i + k]).
+Index count_flips(std::span<const Complex> uv) {
+    Index flips = 0;
+    for (std::size_t i = 0; i + 2 < uv.size(); i += 3) flips += flipped_uv(uv[i], uv[i + 1], uv[i + 2]);
+    return flips;
+}
+
+// A repair's layout with the clamped cotangent weights and, where rounding leaves flips there
+// (sliver clusters with weights 1e6 apart collapse onto a point), with uniform ones (Tutte's)
+// too: `solve(weight, uv)` makes one (false: none). The one with fewer flips goes to `uv` (the
+// first on ties); returns its flips, -1 if neither could be made.
+template <class Solve>
+Index fewest_flips(const PatchEdges& edges, std::vector<Complex>& uv, const Solve& solve) {
+    Index best = -1;
+    std::vector<Complex> trial;
+    std::vector<double> uniform;
+    for (int attempt = 0; attempt < 2 && best != 0; ++attempt) {
+        if (attempt == 1) uniform.assign(edges.weight.size(), 1.0);
+        if (!solve(attempt == 0 ? std::span<const double>(edges.weight) : std::span<const double>(uniform), trial))
+            continue;
+        const Index flips = count_flips(trial);
+        if (best < 0 || flips < best) best = flips, uv.swap(trial);
+    }
+    return best;
+}
+
 // One folded disk patch laid out again on its rectangle (see repair_folded_patches): the uv of
-// corner k of faces[i] in uv[3 i + k]; false if the patch cannot be. `local` is #H scratch, all
-// -1, and left so.
-bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, UnionFind& points,
-                        const std::vector<Index>& faces, Index first_border, const PatchInfo& info,
-                        std::span<const Complex> corner_uv, Weights weights, std::vector<Index>& local,
-                        std::vector<Complex>& uv) {
+// corner k of faces[i] in uv[3 i + k]; returns its flips (see fewest_flips), -1 if the patch
+// cannot be. `local` is #H scratch, all -1, and left so.
+Index embed_on_rectangle(const MeshView& mesh, std::span<const char> border, UnionFind& patch_points,
+                         const std::vector<Index>& faces, Index first_border, const PatchInfo& info,
+                         std::span<const Complex> corner_uv, std::vector<Index>& local, std::vector<Complex>& uv) {
     const double w = info.width, h = info.height;
-    if (!(w > 0 && h > 0)) return false;
-    std::vector<Index> roots;
-    for (Index f : faces)
-        for (int k = 0; k < 3; ++k) {
-            const Index r = points.find(3 * f + k);
-            if (local[r] < 0) local[r] = static_cast<Index>(roots.size()), roots.push_back(r);
-        }
-    const auto clear = [&] {
-        for (Index r : roots) local[r] = -1;
-    };
-    const Index n = static_cast<Index>(roots.size());
+    if (!(w > 0 && h > 0)) return -1;
+    const PatchPoints points(patch_points, faces, local);
+    const Index n = points.size();
     // The border loop, counter-clockwise (the patch on its left); each point once.
     std::vector<Index> loop;
     std::vector<char> is_border(n, 0);
     for (Index e = first_border;;) {
-        const Index q = local[points.find(e)];
-        if (is_border[q] || static_cast<Index>(loop.size()) >= n) return clear(), false;
+        const Index q = points.of(e);
+        if (is_border[q] || static_cast<Index>(loop.size()) >= n) return -1;
         is_border[q] = 1;
         loop.push_back(e);
         e = next_on_border(mesh, border, e);
         if (e == first_border) break;
     }
     const Index m = static_cast<Index>(loop.size());
-    if (m < 4) return clear(), false;
+    if (m < 4) return -1;
     // Corners: four border points in counter-clockwise order, nearest the rectangle's corners
     // (least sum of squared distances; first best on ties).
     const std::array<Complex, 4> corner{Complex(0, 0), Complex(w, 0), Complex(w, h), Complex(0, h)};
@@ -242,11 +284,11 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
             for (Index j = 0; j < nc; ++j)
                 if (previous[j] < best) best = previous[j], at = picks[j];
         }
-        if (!(best < kNone)) return clear(), false;
+        if (!(best < kNone)) return -1;
     }
     Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, 2);
     const auto place = [&](Index i, Complex z) {
-        const Index q = local[points.find(loop[i % m])];
+        const Index q = points.of(loop[i % m]);
         x(q, 0) = z.real();
         x(q, 1) = z.imag();
     };
@@ -278,15 +320,18 @@ bool embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Unio
             place(begin + j, a + s * (b - a) + 4 * s * (1 - s) * outward);
         }
     }
-    if (!harmonic_inside(patch_edges(mesh, points, faces, local, weights), {}, is_border, x)) return clear(), false;
-    uv.resize(3 * faces.size());
-    for (std::size_t i = 0; i < faces.size(); ++i)
-        for (int k = 0; k < 3; ++k) {
-            const Index q = local[points.find(3 * faces[i] + k)];
-            uv[3 * i + k] = Complex(x(q, 0), x(q, 1));
-        }
-    clear();
-    return true;
+    const PatchEdges edges = patch_edges(mesh, points, faces);
+    return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
+        Eigen::MatrixXd y = x;
+        if (!harmonic_inside(edges, weight, {}, is_border, y)) return false;
+        out.resize(3 * faces.size());
+        for (std::size_t i = 0; i < faces.size(); ++i)
+            for (int k = 0; k < 3; ++k) {
+                const Index q = points.of(3 * faces[i] + k);
+                out[3 * i + k] = Complex(y(q, 0), y(q, 1));
+            }
+        return true;
+    });
 }
 
 // The form's coordinate along a loop (t[0] = 0 up to the period at t[m]) made strictly
@@ -308,24 +353,17 @@ std::vector<double> increasing_along(std::vector<double> t, const std::vector<do
 }
 
 // One folded cylinder patch laid out again on its flat cylinder (see repair_folded_patches):
-// the uv of corner k of faces[i] in uv[3 i + k]; false if the patch cannot be. `loops` are its
-// two border loops' first halfedges; `local` is #H scratch, all -1, and left so.
-bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, UnionFind& points,
-                       const std::vector<Index>& faces, std::array<Index, 2> loops,
-                       std::span<const Complex> corner_uv, Weights weights, std::vector<Index>& local,
-                       std::vector<Complex>& uv) {
-    // Points, each with the uv of its first corner as its own frame.
-    std::vector<Index> roots;
-    std::vector<Complex> frame;
-    for (Index f : faces)
-        for (int k = 0; k < 3; ++k) {
-            const Index r = points.find(3 * f + k);
-            if (local[r] < 0) local[r] = static_cast<Index>(roots.size()), roots.push_back(r), frame.push_back(corner_uv[3 * f + k]);
-        }
-    const auto clear = [&] {
-        for (Index r : roots) local[r] = -1;
-    };
-    const Index n = static_cast<Index>(roots.size());
+// the uv of corner k of faces[i] in uv[3 i + k]; returns its flips (see fewest_flips), -1 if
+// the patch cannot be. `loops` are its two border loops' first halfedges; `local` is #H
+// scratch, all -1, and left so.
+Index embed_on_cylinder(const MeshView& mesh, std::span<const char> border, UnionFind& patch_points,
+                        const std::vector<Index>& faces, std::array<Index, 2> loops,
+                        std::span<const Complex> corner_uv, std::vector<Index>& local, std::vector<Complex>& uv) {
+    const PatchPoints points(patch_points, faces, local);
+    const Index n = points.size();
+    // Each point's frame: the uv of its first corner.
+    std::vector<Complex> frame(n);
+    for (Index q = 0; q < n; ++q) frame[q] = corner_uv[points.first_corner(q)];
     // The period: the form along a border loop (the patch on its left). The integral of a closed
     // form, so exact whatever folds inside.
     std::array<std::vector<Index>, 2> loop;
@@ -333,8 +371,8 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
     std::vector<char> is_border(n, 0);
     for (int l = 0; l < 2; ++l)
         for (Index e = loops[l];;) {
-            const Index q = local[points.find(e)];
-            if (is_border[q] || static_cast<Index>(loop[l].size()) >= n) return clear(), false;
+            const Index q = points.of(e);
+            if (is_border[q] || static_cast<Index>(loop[l].size()) >= n) return -1;
             is_border[q] = 1;
             loop[l].push_back(e);
             period[l] += corner_uv[MeshView::next(e)] - corner_uv[e];
@@ -342,11 +380,11 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
             if (e == loops[l]) break;
         }
     const Complex pi = period[1];
-    if (!(std::abs(pi) > 0) || std::abs(period[0] + pi) > kIsoLineTol * std::abs(pi)) return clear(), false;
+    if (!(std::abs(pi) > 0) || std::abs(period[0] + pi) > kIsoLineTol * std::abs(pi)) return -1;
     // A corner's uv is its point's frame plus a whole number of periods (the walk that
     // integrated the form went around the core that many times more).
     const auto turns = [&](Index corner) {
-        const Complex d = corner_uv[corner] - frame[local[points.find(corner)]];
+        const Complex d = corner_uv[corner] - frame[points.of(corner)];
         return std::round((d * std::conj(pi)).real() / std::norm(pi));
     };
     // In the frame turned so that the period is +i: across the core is real, around it imaginary.
@@ -360,10 +398,10 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
             lo = std::min(lo, re), hi = std::max(hi, re);
         }
         level[l] = 0.5 * (lo + hi);
-        if (hi - lo > kIsoLineTol * std::abs(pi)) return clear(), false;
+        if (hi - lo > kIsoLineTol * std::abs(pi)) return -1;
     }
     // Loop 1 is walked along +period (the patch on its left lies towards lower levels).
-    if (!(level[0] < level[1])) return clear(), false;
+    if (!(level[0] < level[1])) return -1;
     Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, 2);
     std::vector<char> moved(n, 0);  // loop points placed away from the form's uv
     for (int l = 0; l < 2; ++l) {
@@ -386,7 +424,7 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
             along = increasing_along(std::move(along), arc);
         }
         if (along.empty()) {
-            if (!(arc[m] > 0)) return clear(), false;
+            if (!(arc[m] > 0)) return -1;
             along = arc;
         }
         // From where the form puts the loop's first point, one walk along the loop; `walk` is the
@@ -399,7 +437,7 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
             const Complex z = Complex(level[l], start.imag() + around) / turn;
             const double walked = std::round(((walk - corner_uv[e]) * std::conj(pi)).real() / std::norm(pi));
             const Complex placed = z - (walked + turns(e)) * pi;  // into its point's frame
-            const Index q = local[points.find(e)];
+            const Index q = points.of(e);
             x(q, 0) = placed.real();
             x(q, 1) = placed.imag();
             moved[q] = std::abs(placed - frame[q]) > kIsoLineTol * total;
@@ -408,12 +446,12 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
     }
     // Edges with their lift across the seam, from any face that has them (all agree: corners
     // of one face are in one walk).
-    const PatchEdges edges = patch_edges(mesh, points, faces, local, weights);
+    const PatchEdges edges = patch_edges(mesh, points, faces);
     std::vector<Complex> lift(edges.pair.size());
     for (Index f : faces)
         for (int k = 0; k < 3; ++k) {
             const Index c = 3 * f + k, d = 3 * f + (k + 1) % 3;
-            Index a = local[points.find(c)], b = local[points.find(d)];
+            Index a = points.of(c), b = points.of(d);
             double da = turns(c), db = turns(d);
             if (a > b) std::swap(a, b), std::swap(da, db);
             const auto it = std::lower_bound(edges.pair.begin(), edges.pair.end(), std::pair(a, b));
@@ -424,40 +462,40 @@ bool embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Union
     // distortion: a layout of the whole patch squashes the cut's slivers). Where that still
     // flips (the free region is not convex, so nothing forbids it), every inside point moves:
     // with both loops on their lines and positive weights, no triangle flips, up to rounding.
-    const auto layout = [&](const Eigen::MatrixXd& at) {
-        uv.resize(3 * faces.size());
-        Index flips = 0;
-        for (std::size_t i = 0; i < faces.size(); ++i) {
+    const auto layout = [&](const Eigen::MatrixXd& at, std::vector<Complex>& out) {
+        out.resize(3 * faces.size());
+        for (std::size_t i = 0; i < faces.size(); ++i)
             for (int k = 0; k < 3; ++k) {
-                const Index c = 3 * faces[i] + k, q = local[points.find(c)];
-                uv[3 * i + k] = Complex(at(q, 0), at(q, 1)) + turns(c) * pi;
+                const Index c = 3 * faces[i] + k, q = points.of(c);
+                out[3 * i + k] = Complex(at(q, 0), at(q, 1)) + turns(c) * pi;
             }
-            flips += flipped_uv(uv[3 * i], uv[3 * i + 1], uv[3 * i + 2]);
-        }
-        return flips;
+        return count_flips(out);
     };
     std::vector<char> seed = moved, moves(n, 0);
     for (Index f : faces)
         if (flipped_uv(corner_uv[3 * f], corner_uv[3 * f + 1], corner_uv[3 * f + 2]))
-            for (int k = 0; k < 3; ++k) seed[local[points.find(3 * f + k)]] = 1;
+            for (int k = 0; k < 3; ++k) seed[points.of(3 * f + k)] = 1;
     for (int ring = 0; ring < 2; ++ring) {
         for (Index f : faces) {
-            const Index a = local[points.find(3 * f)], b = local[points.find(3 * f + 1)], c = local[points.find(3 * f + 2)];
+            const Index a = points.of(3 * f), b = points.of(3 * f + 1), c = points.of(3 * f + 2);
             if (seed[a] || seed[b] || seed[c]) moves[a] = moves[b] = moves[c] = 1;
         }
         seed = moves;
     }
-    Eigen::MatrixXd y = x;
+    Eigen::MatrixXd form_x = x;  // the inside at the form's uv, each point in its frame
     std::vector<char> fixed(n);
     for (Index q = 0; q < n; ++q) {
         fixed[q] = is_border[q] || !moves[q];
-        if (!is_border[q]) y(q, 0) = frame[q].real(), y(q, 1) = frame[q].imag();
+        if (!is_border[q]) form_x(q, 0) = frame[q].real(), form_x(q, 1) = frame[q].imag();
     }
-    if (harmonic_inside(edges, lift, fixed, y) && layout(y) == 0) return clear(), true;
-    const bool solved = harmonic_inside(edges, lift, is_border, x);
-    if (solved) layout(x);
-    clear();
-    return solved;
+    return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
+        Eigen::MatrixXd y = form_x;
+        if (harmonic_inside(edges, weight, lift, fixed, y) && layout(y, out) == 0) return true;
+        y = x;
+        if (!harmonic_inside(edges, weight, lift, is_border, y)) return false;
+        layout(y, out);
+        return true;
+    });
 }
 
 // A start vertex for a cylinder's transversal.
@@ -662,29 +700,18 @@ Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border
         }
     UnionFind points = patch_points(mesh, border);
     std::vector<Index> local(mesh.n_halfedges(), -1);
-    std::vector<Complex> uv, best;
+    std::vector<Complex> uv;
     const std::vector<double> length = edge_lengths(mesh);
     for (Index id = 0; id < np; ++id) {
         PatchInfo& info = p.info[id];
         if (faces[id].empty() || first_border[id] == kNoHalfedge) continue;
-        // Clamped cotangent weights; where rounding still leaves flips, uniform ones; the layout
-        // with fewer flips, the first on ties.
-        Index flips = info.flipped_uv_triangles;
-        for (const Weights weights : {Weights::ClampedCotan, Weights::Uniform}) {
-            const bool embedded =
-                info.type == PatchInfo::Type::Disk
-                    ? embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, p.corner_uv,
-                                         weights, local, uv)
-                    : loops[id][1] != kNoHalfedge && embed_on_cylinder(mesh, border, points, faces[id], loops[id],
-                                                                       p.corner_uv, weights, local, uv);
-            if (!embedded) continue;
-            Index n = 0;
-            for (std::size_t i = 0; i < faces[id].size(); ++i) n += flipped_uv(uv[3 * i], uv[3 * i + 1], uv[3 * i + 2]);
-            if (n < flips) flips = n, best.swap(uv);
-            if (flips == 0) break;
-        }
-        if (flips >= info.flipped_uv_triangles) continue;  // rounding beat the theorem: the form's uv stays
-        uv.swap(best);
+        const Index flips =
+            info.type == PatchInfo::Type::Disk
+                ? embed_on_rectangle(mesh, border, points, faces[id], first_border[id], info, p.corner_uv, local, uv)
+            : loops[id][1] != kNoHalfedge
+                ? embed_on_cylinder(mesh, border, points, faces[id], loops[id], p.corner_uv, local, uv)
+                : -1;
+        if (flips < 0 || flips >= info.flipped_uv_triangles) continue;  // rounding beat the theorem: the form's uv stays
         for (std::size_t i = 0; i < faces[id].size(); ++i) std::copy_n(&uv[3 * i], 3, &p.corner_uv[3 * faces[id][i]]);
         info.flipped_uv_triangles = flips;
         info.distortion_max = info.distortion_mean = info.rectangle_error = 0;
