@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "holoflow/engine/output.h"
 #include "holoflow/kernels/errors.h"
@@ -20,9 +21,8 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 // Where a cylinder's border is no straight loop a transversal may only cut a disk off it; the
 // cylinder left is opened in the next round.
 constexpr int kCylinderRounds = 4;
-// Midpoint subdivisions tried where zero fans fail, while the refined traced mesh stays this
-// small (one: a second one cost oblong-shuffled 25x its time and still left a region failed).
-constexpr int kMaxFanRefinements = 1;
+// Where zero fans fail, the midpoint subdivision is tried while it stays this small (one step:
+// a second one cost oblong-shuffled 25x its time and still left a region failed).
 constexpr Index kMaxFanRefinedFaces = 20000;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
@@ -152,7 +152,6 @@ void locate_zeros(SegmentationWork& work) {
     zero_options.intrinsic_delaunay = zero_options.triangulation != nullptr;
     r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau, zero_options);
     r.conformal.intrinsic.reset();  // nothing after the zeros needs it
-    work.regions.clear();
     if (!r.is_torus()) work.regions = zero_regions(r);
 }
 
@@ -165,6 +164,27 @@ void regularise(SegmentationWork& work) {
                                      : r.conformal.tau;
     r.regular = r.is_torus() ? kernels::unregularised(traced, tau)  // its homology cut graph must stay
                              : kernels::regularise_zeros(traced, tau, work.regions);
+}
+
+// The conformal stage, the zeros and the fans again on the midpoint subdivision of the traced
+// surface (same shape, same vertex ids); nothing where that fails.
+std::optional<SegmentationWork> on_midpoint_subdivision(const SegmentationWork& work) {
+    SegmentationWork refined;
+    refined.options = work.options;
+    try {
+        const auto traced = std::make_shared<const MeshView>(kernels::subdivide_midpoint(*work.result.traced_input));
+        const kernels::Topology topology = kernels::compute_topology(*traced);
+        refined.result.traced_input = traced;
+        refined.conformal = conformal_stage::prepare(traced, work.options.conformal, &topology);
+        conformal_stage::run_after_prepare(refined.conformal, nullptr);  // a new pattern: no cache
+        locate_zeros(refined);
+        regularise(refined);
+    } catch (const InvalidInput&) {
+        return std::nullopt;
+    } catch (const SolverFailure&) {
+        return std::nullopt;
+    }
+    return refined;
 }
 
 }  // namespace
@@ -188,48 +208,19 @@ void fans(SegmentationWork& work) {
     }
     // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
     // too few: a patch around it winds twice, or the form's uv folds there. On a small mesh the
-    // zeros get room on its midpoint subdivision (same shape, same vertex ids): the conformal
-    // stage, the zeros and the fans run again there; the attempt with the fewest failed regions
-    // is kept (the first on ties). The time counts as the fans'.
+    // zeros get room on its midpoint subdivision, kept if fewer regions fail there. The time
+    // counts as the fans'.
     if (r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxFanRefinedFaces) {
-        struct Attempt {
-            std::shared_ptr<const MeshView> traced;
-            ConformalResult conformal;
-            kernels::ZeroSet zeros;
-            std::vector<kernels::ZeroRegion> regions;
-            kernels::RegularisedForm regular;
-            int refinements;
-        };
-        Attempt best{r.traced_input, std::move(r.conformal), std::move(r.zeros), std::move(work.regions),
-                     std::move(r.regular), 0};
-        std::shared_ptr<const MeshView> traced = best.traced;
-        for (int refinement = 1; refinement <= kMaxFanRefinements && best.regular.failed_regions > 0 &&
-                                 4 * traced->n_faces() <= kMaxFanRefinedFaces;
-             ++refinement) {
-            try {
-                traced = std::make_shared<const MeshView>(kernels::subdivide_midpoint(*traced));
-                const kernels::Topology topology = kernels::compute_topology(*traced);
-                work.conformal = conformal_stage::prepare(traced, work.options.conformal, &topology);
-                conformal_stage::run_after_prepare(work.conformal, nullptr);  // a new pattern: no cache
-                r.traced_input = traced;
-                locate_zeros(work);
-                regularise(work);
-            } catch (const InvalidInput&) {  // the attempts so far stand
-                break;
-            } catch (const SolverFailure&) {
-                break;
-            }
-            if (r.regular.failed_regions < best.regular.failed_regions)
-                best = {traced, std::move(r.conformal), std::move(r.zeros), std::move(work.regions),
-                        std::move(r.regular), refinement};
+        std::optional<SegmentationWork> refined = on_midpoint_subdivision(work);
+        if (refined && refined->result.regular.failed_regions < r.regular.failed_regions) {
+            SegmentationResult& f = refined->result;
+            r.traced_input = std::move(f.traced_input);
+            r.conformal = std::move(f.conformal);
+            r.zeros = std::move(f.zeros);
+            work.regions = std::move(refined->regions);
+            r.regular = std::move(f.regular);
+            r.fan_refinements = 1;
         }
-        work.conformal = {};
-        r.traced_input = std::move(best.traced);
-        r.conformal = std::move(best.conformal);
-        r.zeros = std::move(best.zeros);
-        work.regions = std::move(best.regions);
-        r.regular = std::move(best.regular);
-        r.fan_refinements = best.refinements;
     }
     const MeshView& traced = *r.traced_input;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;
