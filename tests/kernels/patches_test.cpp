@@ -54,6 +54,22 @@ double smallest_relative_area(const MeshView& m, const Patches& p, Index patch) 
     return smallest;
 }
 
+// On shapes::cylinder with `around` vertices per ring: the form running around it (one chord
+// per step, wrapped to -1, 0, 1 steps; period `around` chords, real) and up it (imaginary),
+// sheared by `shear` (Re gains shear times the rise).
+Eigen::VectorXcd around_and_up(const MeshView& m, int around, double shear) {
+    const double chord = 2 * std::sin(std::numbers::pi / around);
+    Eigen::VectorXcd tau(m.n_edges());
+    for (Index e = 0; e < m.n_edges(); ++e) {
+        const Index a = m.E(e, 0), b = m.E(e, 1);
+        Index steps = (b % around - a % around + around) % around;
+        if (steps > around / 2) steps -= around;
+        const double rise = m.V(b, 2) - m.V(a, 2);
+        tau(e) = Complex(chord * static_cast<double>(steps) + shear * rise, rise);
+    }
+    return tau;
+}
+
 // A tube with a form whose period around it is real: one cylinder patch. The transversal
 // through a vertex at mid-height (an iso-u line; the form is sheared so that it meets no other
 // vertex) opens it into a disk whose uv is exactly the rectangle period x height.
@@ -62,14 +78,7 @@ TEST(CylinderTransversals, TubeOpensIntoItsRectangle) {
     constexpr double kHeight = 2, kShear = 0.37;
     const MeshView m = shapes::cylinder(1, kHeight, kAround, kAlong);
     const double chord = 2 * std::sin(std::numbers::pi / kAround);
-    Eigen::VectorXcd tau(m.n_edges());
-    for (Index e = 0; e < m.n_edges(); ++e) {
-        const Index a = m.E(e, 0), b = m.E(e, 1);
-        Index steps = (b % kAround - a % kAround + kAround) % kAround;  // around, wrapped to -1, 0, 1
-        if (steps > kAround / 2) steps -= kAround;
-        const double rise = m.V(b, 2) - m.V(a, 2);
-        tau(e) = Complex(chord * static_cast<double>(steps) + kShear * rise, rise);
-    }
+    const Eigen::VectorXcd tau = around_and_up(m, kAround, kShear);
     const auto fill = [](const CutMesh& cut) {
         std::vector<char> border(cut.mesh.n_edges(), 0);
         for (Index e = 0; e < cut.mesh.n_edges(); ++e) border[e] = cut.edge_trajectory[e] != kNoBorder;
@@ -192,23 +201,13 @@ TEST(PatchRepair, EarOnOneSideGetsAnArea) {
     EXPECT_LE(p.info[0].rectangle_error, kBulge);
 }
 
-// A tube whose form runs around it (period kAround chord, real) and up it (imaginary): one
-// cylinder patch, its two loops iso-v lines. `bump` moves vertex v's image by d (an exact form
-// added: the period stays).
+// A tube whose form runs around it and up it (around_and_up, unsheared): one cylinder patch,
+// its two loops iso-v lines. `bump` moves vertex v's image by d (an exact form added: the
+// period stays).
 struct FoldedTube {
     static constexpr int kAround = 24, kAlong = 8;
     MeshView mesh = shapes::cylinder(1, 2, kAround, kAlong);
-    Eigen::VectorXcd tau;
-    double period = kAround * 2 * std::sin(std::numbers::pi / kAround);
-    FoldedTube() : tau(mesh.n_edges()) {
-        const double chord = period / kAround;
-        for (Index e = 0; e < mesh.n_edges(); ++e) {
-            const Index a = mesh.E(e, 0), b = mesh.E(e, 1);
-            Index steps = (b % kAround - a % kAround + kAround) % kAround;  // around, wrapped to -1, 0, 1
-            if (steps > kAround / 2) steps -= kAround;
-            tau(e) = Complex(chord * static_cast<double>(steps), mesh.V(b, 2) - mesh.V(a, 2));
-        }
-    }
+    Eigen::VectorXcd tau = around_and_up(mesh, kAround, 0);
     void bump(Index v, Complex d) {
         for (Index e = 0; e < mesh.n_edges(); ++e)
             tau(e) += (mesh.E(e, 1) == v ? d : Complex(0)) - (mesh.E(e, 0) == v ? d : Complex(0));
