@@ -446,13 +446,15 @@ Index embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Unio
     }
     // Edges with their lift across the seam, from any face that has them (all agree: corners
     // of one face are in one walk).
+    std::vector<double> corner_turns(3 * faces.size());  // turns(3 faces[i] + k) at 3 i + k
+    for (std::size_t i = 0; i < faces.size(); ++i)
+        for (int k = 0; k < 3; ++k) corner_turns[3 * i + k] = turns(3 * faces[i] + k);
     const PatchEdges edges = patch_edges(mesh, points, faces);
     std::vector<Complex> lift(edges.pair.size());
-    for (Index f : faces)
+    for (std::size_t i = 0; i < faces.size(); ++i)
         for (int k = 0; k < 3; ++k) {
-            const Index c = 3 * f + k, d = 3 * f + (k + 1) % 3;
-            Index a = points.of(c), b = points.of(d);
-            double da = turns(c), db = turns(d);
+            Index a = points.of(3 * faces[i] + k), b = points.of(3 * faces[i] + (k + 1) % 3);
+            double da = corner_turns[3 * i + k], db = corner_turns[3 * i + (k + 1) % 3];
             if (a > b) std::swap(a, b), std::swap(da, db);
             const auto it = std::lower_bound(edges.pair.begin(), edges.pair.end(), std::pair(a, b));
             lift[it - edges.pair.begin()] = (db - da) * pi;
@@ -466,8 +468,8 @@ Index embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Unio
         out.resize(3 * faces.size());
         for (std::size_t i = 0; i < faces.size(); ++i)
             for (int k = 0; k < 3; ++k) {
-                const Index c = 3 * faces[i] + k, q = points.of(c);
-                out[3 * i + k] = Complex(at(q, 0), at(q, 1)) + turns(c) * pi;
+                const Index q = points.of(3 * faces[i] + k);
+                out[3 * i + k] = Complex(at(q, 0), at(q, 1)) + corner_turns[3 * i + k] * pi;
             }
         return count_flips(out);
     };
