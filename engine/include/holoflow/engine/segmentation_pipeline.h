@@ -41,9 +41,9 @@ struct SegmentationResult {
     //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
     //! input's vertex ids, so tips below its vertex count are input vertices.
     int tip_refinements = 0;
-    //! Midpoint subdivisions of the traced surface made because zero fans failed on it (0
-    //! usually; small meshes only): traced_input is then the refined one, with the same vertex
-    //! ids for the vertices it had.
+    //! 1 where zero fans failed on a small traced surface and fewer failed on its midpoint
+    //! subdivision: traced_input is then the refined one, with the same vertex ids for the
+    //! vertices it had; 0 otherwise.
     int fan_refinements = 0;
     ConformalResult conformal;
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface
