@@ -221,40 +221,55 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         }
 
     // Negative clusters (a broken maximum principle) join the nearest positive one
-    // (breadth-first over mesh edges), so the reported orders add up to the exact total.
-    std::vector<Index> nearest(nv, -1);
-    queue.clear();
-    for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c)
-        if (z.clusters[c].index > 0)
-            for (Index v : z.clusters[c].vertices) nearest[v] = c, queue.push_back(v);
-    for (std::size_t q = 0; q < queue.size(); ++q) {
-        const Index v = queue[q];
-        Index h = mesh.vertex_halfedge[v];
-        const Index start = h;
-        do {
-            const Index w = mesh.head(h);
-            if (nearest[w] < 0) nearest[w] = nearest[v], queue.push_back(w);
-            h = mesh.rotate(h);
-        } while (h != start && h != kNoHalfedge);
+    // (breadth-first over mesh edges), so the reported orders add up to the exact total. A
+    // target driven negative by what joined it joins its own nearest in the next round, until
+    // no cluster is negative or none is positive (total index <= 0: a torus, all cancel).
+    const auto has_saddle = [&](const ZeroCluster& cluster) {
+        return std::any_of(cluster.vertices.begin(), cluster.vertices.end(), [&](Index v) { return z.saddle_order[v] != 0; });
+    };
+    std::vector<char> was_positive(z.clusters.size(), 0);
+    for (std::size_t c = 0; c < z.clusters.size(); ++c) {
+        const ZeroCluster& cluster = z.clusters[c];
+        if (cluster.index > 0) was_positive[c] = 1;
+        else if (has_saddle(cluster)) ++z.artifact_clusters;
+        else ++z.fold_clusters;
     }
-    for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
-        ZeroCluster& cluster = z.clusters[c];
-        if (cluster.index > 0) continue;
-        if (std::none_of(cluster.vertices.begin(), cluster.vertices.end(), [&](Index v) { return z.saddle_order[v] != 0; })) {
-            ++z.fold_clusters;
-            continue;
+    std::vector<Index> nearest(nv);
+    for (bool negative_left = true; negative_left;) {
+        negative_left = false;
+        std::fill(nearest.begin(), nearest.end(), Index{-1});
+        queue.clear();
+        for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c)
+            if (z.clusters[c].index > 0)
+                for (Index v : z.clusters[c].vertices) nearest[v] = c, queue.push_back(v);
+        for (std::size_t q = 0; q < queue.size(); ++q) {
+            const Index v = queue[q];
+            Index h = mesh.vertex_halfedge[v];
+            const Index start = h;
+            do {
+                const Index w = mesh.head(h);
+                if (nearest[w] < 0) nearest[w] = nearest[v], queue.push_back(w);
+                h = mesh.rotate(h);
+            } while (h != start && h != kNoHalfedge);
         }
-        ++z.artifact_clusters;
-        if (cluster.index == 0 || nearest[cluster.vertices.front()] < 0) continue;
-        ZeroCluster& target = z.clusters[nearest[cluster.vertices.front()]];
-        target.index += cluster.index;
-        target.vertices.insert(target.vertices.end(), cluster.vertices.begin(), cluster.vertices.end());
-        target.flipped_faces.insert(target.flipped_faces.end(), cluster.flipped_faces.begin(), cluster.flipped_faces.end());
-        std::sort(target.vertices.begin(), target.vertices.end());
-        std::sort(target.flipped_faces.begin(), target.flipped_faces.end());
-        cluster = ZeroCluster{};
-        ++z.merged_negative_clusters;
+        for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
+            ZeroCluster& cluster = z.clusters[c];
+            if (cluster.index >= 0 || nearest[cluster.vertices.front()] < 0) continue;
+            ZeroCluster& target = z.clusters[nearest[cluster.vertices.front()]];
+            negative_left |= target.index <= 0;  // driven down this round: this one waits
+            if (target.index <= 0) continue;
+            target.index += cluster.index;
+            negative_left |= target.index < 0;
+            target.vertices.insert(target.vertices.end(), cluster.vertices.begin(), cluster.vertices.end());
+            target.flipped_faces.insert(target.flipped_faces.end(), cluster.flipped_faces.begin(), cluster.flipped_faces.end());
+            std::sort(target.vertices.begin(), target.vertices.end());
+            std::sort(target.flipped_faces.begin(), target.flipped_faces.end());
+            cluster = ZeroCluster{};
+            ++z.merged_negative_clusters;
+        }
     }
+    for (std::size_t c = 0; c < z.clusters.size(); ++c)
+        if (was_positive[c] && z.clusters[c].index <= 0) ++z.artifact_clusters;  // cancelled out
     for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
         const ZeroCluster& cluster = z.clusters[c];
         if (cluster.index <= 0) continue;

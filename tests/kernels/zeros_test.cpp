@@ -213,6 +213,21 @@ TEST(Zeros, TorusHasNone) {
     EXPECT_EQ(z.artifact_clusters, 0);
 }
 
+// A torus stretched a thousandfold along x: needles of aspect 1000 give the form spurious
+// saddles of both signs. Negative clusters merged into a positive one can drive it negative;
+// it then merges on, so the orders still add up to the total index (0: no zero at all), and
+// every cancelled cluster counts as an artifact.
+TEST(Zeros, StretchedTorusKeepsTheTotalOrderExact) {
+    MeshView torus = shapes::torus(1, 0.4, 40, 20);
+    torus.V.col(0) *= 1000;
+    const ZeroSet z = zeros_of(torus);
+    EXPECT_EQ(z.total_index, 0);
+    EXPECT_GT(z.merged_negative_clusters, 0);  // the case this is about
+    EXPECT_EQ(z.total_order, 0);
+    EXPECT_TRUE(z.zeros.empty());
+    EXPECT_GT(z.artifact_clusters, 0);
+}
+
 TEST(Zeros, RejectsBadInput) {
     const MeshView mesh = shapes::torus(2, 1, 12, 8);
     EXPECT_THROW(find_zeros(mesh, Eigen::VectorXcd::Zero(mesh.n_edges() - 1)), InvalidInput);

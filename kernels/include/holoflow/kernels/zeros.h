@@ -58,9 +58,11 @@ struct ZeroSet {
     int total_index = 0;  //!< sum (w_v - 1) + flips = 2g - 2 exactly on a closed surface
     int total_order = 0;  //!< sum of zero orders (= total_index when no cluster is negative)
     //! Clusters of index <= 0 that hold saddle-count defects (vertices with saddle_order != 0 away
-    //! from any zero: a broken discrete maximum principle, e.g. negative weights).
+    //! from any zero: a broken discrete maximum principle, e.g. negative weights), and positive
+    //! ones the negatives merged into them cancelled.
     Index artifact_clusters = 0;
-    //! Negative clusters merged into their nearest positive one, so total_order = total_index.
+    //! Negative clusters merged into their nearest positive one (again if that one turned
+    //! negative), so total_order = total_index whenever total_index >= 0.
     Index merged_negative_clusters = 0;
     Index nonpositive_winding_vertices = 0;  //!< w_v <= 0 anywhere
     //! #V: m_v = (sign changes of du around v) / 2 - 1 for u = Re of the integrated form, on the
