@@ -51,6 +51,7 @@ int run_guarded(const std::function<int()>& body) {
 // Loading options of every subcommand.
 struct LoadArgs {
     std::string components = "all";
+    std::string pinched_vertices = "split";
     std::size_t max_faces = 0;
 
     void add_to(CLI::App& command) {
@@ -58,12 +59,18 @@ struct LoadArgs {
             .add_option("--component", components,
                         "several components: keep all, or only the largest")
             ->check(CLI::IsMember({"all", "largest"}));
+        command
+            .add_option("--pinched-vertices", pinched_vertices,
+                        "a vertex whose faces form several fans: split it into one vertex per fan, or refuse the mesh")
+            ->check(CLI::IsMember({"split", "refuse"}));
         command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
     }
     engine::LoadOptions options() const {
         engine::LoadOptions o;
         o.components = components == "largest" ? engine::ComponentPolicy::Largest
                                                : engine::ComponentPolicy::All;
+        o.pinched_vertices = pinched_vertices == "refuse" ? engine::PinchedVertexPolicy::Refuse
+                                                          : engine::PinchedVertexPolicy::Split;
         o.max_faces = max_faces;
         return o;
     }
@@ -154,6 +161,7 @@ struct SegmentSettings {
     //! What a finished model's results depend on: a re-run with other values recomputes it.
     nlohmann::json fingerprint() const {
         return {{"mode", mode}, {"laplacian", laplacian}, {"component", load.components},
+                {"pinched_vertices", load.pinched_vertices},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"version", HOLOFLOW_VERSION}};
     }
 };

@@ -10,6 +10,8 @@
 
 #include <Eigen/Geometry>
 
+#include "holoflow/kernels/union_find.h"
+
 namespace holoflow::engine {
 namespace {
 
@@ -194,6 +196,38 @@ std::size_t compact_vertices(PointMatrix& V, TriangleMatrix& F) {
     return dropped;
 }
 
+// Gives every fan of faces around a vertex but the first (by smallest corner) a vertex of its
+// own at the same position; returns how many were added. Corners of one vertex are in one fan
+// when consecutive across a twin: the corner after twin(h) in its face is h's tail again.
+std::size_t split_pinched_vertices(PointMatrix& V, TriangleMatrix& F, const std::vector<Index>& twin) {
+    const Index n_corners = 3 * static_cast<Index>(F.rows());
+    kernels::UnionFind fans(n_corners);
+    for (Index h = 0; h < n_corners; ++h)
+        if (twin[h] != kNoHalfedge) fans.unite(h, MeshView::next(twin[h]));
+    std::vector<Index> fan_vertex(n_corners, -1);  // per fan root
+    std::vector<char> taken(static_cast<std::size_t>(V.rows()), 0);
+    std::vector<Index> copied_from;
+    for (Index h = 0; h < n_corners; ++h) {
+        const Index root = fans.find(h);
+        if (fan_vertex[root] < 0) {
+            const Index v = F(h / 3, h % 3);
+            if (!taken[v]) {
+                taken[v] = 1;
+                fan_vertex[root] = v;
+            } else {
+                fan_vertex[root] = static_cast<Index>(V.rows() + copied_from.size());
+                copied_from.push_back(v);
+            }
+        }
+        F(h / 3, h % 3) = fan_vertex[root];
+    }
+    if (copied_from.empty()) return 0;
+    const Index old_rows = static_cast<Index>(V.rows());
+    V.conservativeResize(old_rows + static_cast<Index>(copied_from.size()), 3);
+    for (std::size_t i = 0; i < copied_from.size(); ++i) V.row(old_rows + static_cast<Index>(i)) = V.row(copied_from[i]);
+    return copied_from.size();
+}
+
 }  // namespace
 
 LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
@@ -332,6 +366,7 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
         if (new_face[h / 3] >= 0 && mate[h] >= 0) twin[renumber(h)] = renumber(mate[h]);
     F = std::move(oriented);
     if (keep_component >= 0) compact_vertices(V, F);
+    if (options.pinched_vertices == PinchedVertexPolicy::Split) report.split_vertices = split_pinched_vertices(V, F, twin);
 
     try {
         return {std::make_shared<const MeshView>(

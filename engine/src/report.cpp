@@ -13,6 +13,7 @@ nlohmann::json info_report(const std::string& path, const LoadedMesh& loaded,
         {"reoriented_faces", r.reoriented_faces},
         {"unreferenced_vertices", r.unreferenced_vertices},
         {"welded_vertices", r.welded_vertices},
+        {"split_vertices", r.split_vertices},
         {"dropped_components", r.dropped_components},
         {"dropped_faces", r.dropped_faces},
     };

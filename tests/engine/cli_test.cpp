@@ -84,8 +84,6 @@ const BadFile kBadFiles[] = {
     {"dup.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 2 3 1\n", MeshErrorKind::DuplicateFace},
     {"fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
      MeshErrorKind::NonManifoldEdge},
-    {"bowtie.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -1 0 0\nv 0 -1 0\nf 1 2 3\nf 1 4 5\n",
-     MeshErrorKind::NonManifoldVertex},
 };
 
 INSTANTIATE_TEST_SUITE_P(Files, CliBadInput, ::testing::ValuesIn(kBadFiles),
@@ -94,6 +92,21 @@ INSTANTIATE_TEST_SUITE_P(Files, CliBadInput, ::testing::ValuesIn(kBadFiles),
                              std::replace(n.begin(), n.end(), '.', '_');
                              return n;
                          });
+
+TEST(Cli, PinchedVerticesAreSplitUnlessRefused) {
+    test::TempDir dir;
+    const std::string path = dir.write("bowtie.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv -1 0 0\nv 0 -1 0\nf 1 2 3\nf 1 4 5\n");
+    const auto split = test::run_cli("info --json '" + path + "'");
+    ASSERT_EQ(split.status, 0) << split.err;
+    const auto j = nlohmann::json::parse(split.out);
+    EXPECT_EQ(j["repairs"]["split_vertices"], 1);
+    EXPECT_EQ(j["vertices"], 6);
+    EXPECT_EQ(j["components"], 2);
+    const auto refused = test::run_cli("info --pinched-vertices refuse '" + path + "'");
+    EXPECT_EQ(refused.status, engine::exit_status(MeshErrorKind::NonManifoldVertex)) << refused.err;
+    EXPECT_EQ(refused.err.rfind("error: non_manifold_vertex: ", 0), 0u) << refused.err;
+    EXPECT_TRUE(refused.out.empty());
+}
 
 TEST(Cli, MissingFileAndDirectory) {
     const auto missing = test::run_cli("info /nonexistent/dir/mesh.off");

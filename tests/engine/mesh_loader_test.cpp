@@ -31,6 +31,23 @@ PolygonSoup octahedron() {
                     {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}});
 }
 
+// Two triangles touching at vertex 0 only.
+PolygonSoup bow_tie() { return soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0}, {{0, 1, 2}, {0, 3, 4}}); }
+
+// Two octahedra, the second's vertex 1 being the first's vertex 0.
+PolygonSoup octahedra_sharing_a_vertex() {
+    PolygonSoup twin = octahedron();
+    const std::size_t n = twin.n_vertices();
+    for (std::size_t i = 0; i < n * 3; ++i) twin.positions.push_back(octahedron().positions[i] + (i % 3 == 0 ? 2 : 0));
+    for (std::size_t i = 0; i < 24; ++i) {
+        const std::int64_t v = octahedron().indices[i];
+        twin.indices.push_back(v == 1 ? 0 : v + static_cast<std::int64_t>(n));
+    }
+    twin.offsets.clear();
+    for (std::size_t i = 0; i <= 16; ++i) twin.offsets.push_back(3 * i);
+    return twin;
+}
+
 MeshErrorKind kind_of(const PolygonSoup& soup, const LoadOptions& options = {}) {
     try {
         mesh_from_soup(soup, options);
@@ -145,25 +162,56 @@ TEST(MeshLoader, EachBadInputHasItsKind) {
     EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1},
                               {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}})),
               MeshErrorKind::NonManifoldEdge);
-    // Two triangles touching at one vertex only (a bow tie).
-    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, -1, 0, 0, 0, -1, 0},
-                              {{0, 1, 2}, {0, 3, 4}})),
-              MeshErrorKind::NonManifoldVertex);
-    // Two octahedra sharing one vertex.
-    PolygonSoup twin = octahedron();
-    const std::size_t n = twin.n_vertices();
-    for (std::size_t i = 0; i < n * 3; ++i) twin.positions.push_back(octahedron().positions[i] + (i % 3 == 0 ? 2 : 0));
-    for (std::size_t i = 0; i < 24; ++i) {
-        const std::int64_t v = octahedron().indices[i];
-        twin.indices.push_back(v == 1 ? 0 : v + static_cast<std::int64_t>(n));  // its vertex 1 is our 0
-    }
-    twin.offsets.clear();
-    for (std::size_t i = 0; i <= 16; ++i) twin.offsets.push_back(3 * i);
-    EXPECT_EQ(kind_of(twin), MeshErrorKind::NonManifoldVertex);
+    // Pinched vertices, when asked to refuse them (MeshLoader.PinchedVerticesAreSplitIntoFans).
+    LoadOptions refuse;
+    refuse.pinched_vertices = PinchedVertexPolicy::Refuse;
+    EXPECT_EQ(kind_of(bow_tie(), refuse), MeshErrorKind::NonManifoldVertex);
+    EXPECT_EQ(kind_of(octahedra_sharing_a_vertex(), refuse), MeshErrorKind::NonManifoldVertex);
 
     LoadOptions limit;
     limit.max_faces = 7;
     EXPECT_EQ(kind_of(octahedron(), limit), MeshErrorKind::TooLarge);
+}
+
+// A vertex whose faces form several fans gets one vertex per fan at its position: the fan with
+// the smallest corner keeps the id, the others get new ones after the file's vertices.
+TEST(MeshLoader, PinchedVerticesAreSplitIntoFans) {
+    const auto check = [](const PolygonSoup& soup, std::size_t split, Index vertices, Index components,
+                          Index boundary_loops, Index euler) {
+        const LoadedMesh m = mesh_from_soup(soup);
+        EXPECT_EQ(m.report.split_vertices, split);
+        const kernels::Topology t = kernels::compute_topology(*m.mesh);
+        EXPECT_EQ(t.vertices, vertices);
+        EXPECT_EQ(t.components, components);
+        EXPECT_EQ(t.boundary_loops, boundary_loops);
+        EXPECT_EQ(t.euler_characteristic, euler);
+        for (Index v = static_cast<Index>(soup.n_vertices()); v < m.mesh->n_vertices(); ++v)
+            EXPECT_EQ(m.mesh->V.row(v), m.mesh->V.row(0));  // every pinch here is at vertex 0
+    };
+    {
+        SCOPED_TRACE("bow tie");
+        check(bow_tie(), 1, 6, 2, 2, 2);
+    }
+    {
+        SCOPED_TRACE("two octahedra sharing a vertex");
+        check(octahedra_sharing_a_vertex(), 1, 12, 2, 0, 4);
+    }
+    {
+        // An octahedron without two faces that touch only at its vertex 4: the two holes make one
+        // boundary loop through the two copies of vertex 4, a disk.
+        SCOPED_TRACE("holes touching at a corner");
+        PolygonSoup holes = soup_of({1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1},
+                                    {{2, 1, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}});
+        const LoadedMesh m = mesh_from_soup(holes);
+        EXPECT_EQ(m.report.split_vertices, 1u);
+        const kernels::Topology t = kernels::compute_topology(*m.mesh);
+        EXPECT_EQ(t.vertices, 7);
+        EXPECT_EQ(t.boundary_loops, 1);
+        EXPECT_EQ(t.euler_characteristic, 1);
+        EXPECT_EQ(m.mesh->V.row(6), m.mesh->V.row(4));
+    }
+    // A manifold mesh is left as it is.
+    EXPECT_EQ(mesh_from_soup(octahedron()).report.split_vertices, 0u);
 }
 
 TEST(MeshLoader, MoebiusBandIsNonOrientable) {

@@ -62,11 +62,14 @@ inline void check_topology(const MeshView& mesh, const kernels::Topology& t) {
                         3 * static_cast<std::size_t>(t.faces) + boundary_halfedges);
 }
 
-//! Loads with the given policy; false when the loader refuses the soup (a MeshError).
-inline bool load(const engine::PolygonSoup& soup, engine::ComponentPolicy policy,
-                 engine::LoadedMesh& out) {
+//! Loads with the given policies; false when the loader refuses the soup (a MeshError).
+inline bool load(const engine::PolygonSoup& soup, engine::ComponentPolicy policy, engine::LoadedMesh& out,
+                 engine::PinchedVertexPolicy pinched = engine::PinchedVertexPolicy::Split) {
     try {
-        out = engine::mesh_from_soup(soup, {policy, 0});
+        engine::LoadOptions options;
+        options.components = policy;
+        options.pinched_vertices = pinched;
+        out = engine::mesh_from_soup(soup, options);
         return true;
     } catch (const engine::MeshError&) {
         return false;
@@ -89,7 +92,12 @@ inline int read_load_topology(const std::uint8_t* data, std::size_t size, engine
     const engine::LoadReport& r = all.report;
     HOLOFLOW_FUZZ_CHECK(r.file_vertices == soup.n_vertices() && r.file_polygons == soup.n_polygons());
     HOLOFLOW_FUZZ_CHECK(r.unreferenced_vertices + static_cast<std::size_t>(mesh.n_vertices()) ==
-                        soup.n_vertices());
+                        soup.n_vertices() + r.split_vertices);
+    {   // Refusing pinched vertices refuses exactly the soups that needed a split.
+        engine::LoadedMesh strict;
+        HOLOFLOW_FUZZ_CHECK(load(soup, engine::ComponentPolicy::All, strict, engine::PinchedVertexPolicy::Refuse) ==
+                            (r.split_vertices == 0));
+    }
     HOLOFLOW_FUZZ_CHECK(soup.n_polygons() - r.triangulated_polygons + r.triangles_from_polygons ==
                         static_cast<std::size_t>(mesh.n_faces()));
     // A loaded mesh is a valid surface: topology must not throw.

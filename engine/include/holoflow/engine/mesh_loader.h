@@ -11,9 +11,14 @@ namespace holoflow::engine {
 
 enum class ComponentPolicy { All, Largest };
 
+//! A vertex whose faces form several fans (two holes touching at a corner, surfaces meeting at a
+//! point): one vertex per fan, at the same position, or a non_manifold_vertex refusal.
+enum class PinchedVertexPolicy { Split, Refuse };
+
 struct LoadOptions {
     ComponentPolicy components = ComponentPolicy::All;
     std::size_t max_faces = 0;  //!< 0: no limit beyond 32-bit indices
+    PinchedVertexPolicy pinched_vertices = PinchedVertexPolicy::Split;
 };
 
 //! What the loader changed on the way from file to MeshView (all counts; 0 when untouched).
@@ -25,6 +30,7 @@ struct LoadReport {
     std::size_t reoriented_faces = 0;       //!< faces flipped to make the winding consistent
     std::size_t unreferenced_vertices = 0;  //!< dropped
     std::size_t welded_vertices = 0;        //!< STL corners merged by position
+    std::size_t split_vertices = 0;         //!< vertices added by splitting pinched vertices into fans
     std::size_t components = 0;             //!< in the file
     std::size_t dropped_components = 0;     //!< with ComponentPolicy::Largest
     std::size_t dropped_faces = 0;          //!< faces of the dropped components
