@@ -5,7 +5,9 @@
 #include <optional>
 
 #include "holoflow/engine/output.h"
+#include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/holomorphic.h"
 #include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/tips.h"
 #include "holoflow/kernels/topology.h"
@@ -34,6 +36,19 @@ Eigen::VectorXcd restrict_to_first_copy(const MeshView& open, const MeshView& co
         out(e) = static_cast<double>(cover.edge_sign(h)) * tau(cover.halfedge_edge[h]);
     }
     return out;
+}
+
+// A torus's periods of the regularised form along its homology generators (the regularised mesh
+// keeps the surface's faces and corners: no fans).
+std::array<Complex, 2> generator_periods(const SegmentationResult& r) {
+    const MeshView& surface = *r.conformal.surface;
+    const MeshView& m = r.regular.mesh;
+    std::vector<Index> regular_halfedge(surface.n_halfedges(), kNoHalfedge);
+    for (Index h = 0; h < m.n_halfedges(); ++h) regular_halfedge[3 * r.regular.original_face[MeshView::face(h)] + h % 3] = h;
+    std::array<Complex, 2> period{};
+    for (int i = 0; i < 2; ++i)
+        for (Index h : r.conformal.homology.loops[i]) period[i] += kernels::form_along(m, r.regular.tau, regular_halfedge[h]);
+    return period;
 }
 
 // Clusters of the working surface as regions of the traced surface. On a double cover only the
@@ -202,7 +217,10 @@ void fans(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
     regularise(work);
-    if (r.is_torus()) {  // no zeros
+    if (r.is_torus()) {  // no zeros; the parallelogram made a rectangle (the paper's affine step)
+        const std::array<Complex, 2> period = generator_periods(r);
+        r.torus_periods = kernels::reduce_lattice(period[0], period[1]);
+        r.regular.tau = kernels::rectangle_form(r.regular.tau, r.torus_periods[0], r.torus_periods[1]);
         clock.lap("zero_fans");
         return;
     }
@@ -244,9 +262,80 @@ void fans(SegmentationWork& work) {
     clock.lap("zero_fans");
 }
 
+// The regularised form with face `f` split at the point of barycentric weights `w` (a new
+// vertex, the last): the form's image of the point is the same weighting of its corners'.
+kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg, Index f, const std::array<double, 3>& w) {
+    const MeshView& m = reg.mesh;
+    const Index q = m.n_vertices(), nf = m.n_faces();
+    std::vector<Complex> along(m.n_halfedges());
+    for (Index h = 0; h < m.n_halfedges(); ++h) along[h] = kernels::form_along(m, reg.tau, h);
+    PointMatrix V(q + 1, 3);
+    V.topRows(q) = m.V;
+    V.row(q) = w[0] * m.V.row(m.F(f, 0)) + w[1] * m.V.row(m.F(f, 1)) + w[2] * m.V.row(m.F(f, 2));
+    TriangleMatrix F(nf + 2, 3);
+    F.topRows(nf) = m.F;
+    F.row(f) << m.F(f, 0), m.F(f, 1), q;
+    F.row(nf) << m.F(f, 1), m.F(f, 2), q;
+    F.row(nf + 1) << m.F(f, 2), m.F(f, 0), q;
+    kernels::RegularisedForm out = reg;
+    out.mesh = make_mesh_view(std::move(V), std::move(F));
+    // Each new face lies in an old one (the pieces of f in f); positions in that face's chart.
+    const auto position = [&](Index old_face, Index v) {
+        Complex point = 0;
+        for (int k = 0; k < 3; ++k) {
+            const Complex corner = kernels::chart_corner(along, old_face, k);
+            if (m.F(old_face, k) == v) return corner;
+            point += w[k] * corner;
+        }
+        return point;  // v = q, inside f
+    };
+    out.tau.resize(out.mesh.n_edges());
+    for (Index e = 0; e < out.mesh.n_edges(); ++e) {
+        const Index h = out.mesh.edge_halfedge[e], g = MeshView::face(h);
+        const Index old_face = g < nf && g != f ? g : f;
+        out.tau(e) = position(old_face, out.mesh.head(h)) - position(old_face, out.mesh.tail(h));
+    }
+    out.original_vertex.push_back(-1);
+    out.original_face.push_back(reg.original_face[f]);
+    out.original_face.push_back(reg.original_face[f]);
+    return out;
+}
+
+// The torus's rectangle sides: the vertical and the horizontal line through `corner`, each
+// closing after one period; none unless both close there (rounding, folds of the form).
+std::vector<Trajectory> torus_sides(const kernels::RegularisedForm& reg, Index corner) {
+    const TrajectoryFamily both[] = {TrajectoryFamily::Vertical, TrajectoryFamily::Horizontal};
+    const std::vector<Trajectory> traced = kernels::trace_trajectories(reg.mesh, reg.tau, std::span(&corner, 1), both);
+    // Each line is traced from both ends of its one curve; the first copy is kept.
+    std::vector<Trajectory> sides;
+    for (TrajectoryFamily family : both) {
+        const auto closed = std::find_if(traced.begin(), traced.end(), [&](const Trajectory& t) {
+            return t.family == family && t.end == Trajectory::End::Zero && t.end_vertex == corner;
+        });
+        if (closed == traced.end()) return {};
+        sides.push_back(*closed);
+    }
+    return sides;
+}
+
 void trace(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
+    if (r.is_torus()) {
+        // Straight lines need a form without folds (else: the homology cut, repaired). The corner
+        // is a point inside face 0, away from the mesh's vertex rows: on a symmetric mesh the
+        // lines through a vertex run through other vertices and the cut would leave slivers.
+        if (r.regular.flipped_faces > 0) {
+            clock.lap("tracing");
+            return;
+        }
+        kernels::RegularisedForm split = with_point_in_face(r.regular, 0, {0.30711, 0.32735, 0.36554});
+        const Index corner = split.mesh.n_vertices() - 1;
+        r.trajectories = torus_sides(split, corner);
+        if (!r.trajectories.empty()) r.regular = std::move(split);
+        clock.lap("tracing");
+        return;
+    }
     std::vector<TrajectoryFamily> families{TrajectoryFamily::Vertical};
     if (work.options.mode == SegmentMode::Layout) families.push_back(TrajectoryFamily::Horizontal);
     kernels::TraceOptions trace_options;
@@ -262,10 +351,10 @@ void cut(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
     const MeshView& surface = *r.conformal.surface;
-    // A torus opens along its homology cut graph. Without fans the regularised mesh keeps the
-    // surface's faces and corners.
+    // A torus whose sides did not close opens along its homology cut graph. Without fans the
+    // regularised mesh keeps the surface's faces and corners.
     std::vector<Index> extra_border;
-    if (r.is_torus()) {
+    if (r.is_torus() && r.trajectories.empty()) {
         const MeshView& m = r.regular.mesh;
         extra_border.assign(m.n_edges(), kernels::kNoBorder);
         for (Index e = 0; e < m.n_edges(); ++e) {
@@ -395,6 +484,9 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"tip_refinements", r.tip_refinements},
         {"fan_refinements", r.fan_refinements},
         {"zero_count", z.total_order},
+        {"torus_modulus", r.is_torus() ? nlohmann::json::array({(r.torus_periods[1] / r.torus_periods[0]).real(),
+                                                                 (r.torus_periods[1] / r.torus_periods[0]).imag()})
+                                       : nlohmann::json()},
         {"zero_index_total", z.total_index},
         {"zeros", zeros},
         {"saddle_triangulation", z.intrinsic ? "intrinsic_delaunay" : "mesh"},

@@ -114,6 +114,35 @@ std::complex<double> reduce_modulus(std::complex<double> tau) {
     return tau;
 }
 
+std::array<std::complex<double>, 2> reduce_lattice(std::complex<double> a, std::complex<double> b) {
+    HOLOFLOW_REQUIRE(std::isfinite(std::abs(a)) && std::isfinite(std::abs(b)) && std::abs((b / a).imag()) > 1e-12,
+                     "a lattice needs two finite periods that are not parallel");
+    if ((b / a).imag() < 0) b = -b;
+    // Gauss: take the shorter as A, reduce B by whole multiples of A; stop when B stays longer.
+    for (int guard = 0; guard < 1000; ++guard) {
+        if (std::norm(b) < std::norm(a)) {
+            std::swap(a, b);
+            b = -b;  // (a, b) -> (b, -a) keeps Im(b / a) > 0
+        }
+        const double shift = std::round((b / a).real());
+        if (shift == 0) break;
+        b -= shift * a;
+    }
+    return {a, b};
+}
+
+Eigen::VectorXcd rectangle_form(const Eigen::VectorXcd& tau, std::complex<double> A, std::complex<double> B) {
+    const std::complex<double> m = B / A;
+    HOLOFLOW_REQUIRE(std::isfinite(std::abs(m)) && m.imag() > 0, "the periods must be a positively oriented lattice basis");
+    const double size = std::abs(A), shear = m.real() / m.imag();
+    Eigen::VectorXcd out(tau.size());
+    for (Eigen::Index e = 0; e < tau.size(); ++e) {
+        const std::complex<double> w = tau(e) / A;
+        out(e) = size * std::complex<double>(w.real() - shear * w.imag(), w.imag());
+    }
+    return out;
+}
+
 }  // namespace holoflow::kernels
 
 namespace holoflow::kernels {

@@ -13,12 +13,16 @@
 #include <tbb/global_control.h>
 
 #include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/holomorphic.h"
 #include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/subdivision.h"
 #include "support/test_support.h"
 
 namespace holoflow::engine {
 namespace {
+
+using Complex = std::complex<double>;
+using kernels::Trajectory;
 
 constexpr double kRectangleTol = 1e-9;  // borders are exact iso-lines up to rounding
 
@@ -232,20 +236,63 @@ TEST(Segmentation, LayoutOpensCylindersWithoutAnInsideVertex) {
     }
 }
 
+// The torus opens along the vertical and the horizontal line through one point, one period
+// each: a rectangle, the parallelogram of its reduced periods made one by the affine step.
 TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
-    for (const MeshView& torus : {shapes::torus(2, 1, 48, 24), *test::corpus_mesh("knot")}) {
-        const SegmentationResult r = segment(torus);
+    for (const char* name : {"revolution", "knot", "rotor"}) {
+        SCOPED_TRACE(name);
+        const auto mesh = std::string(name) == "revolution" ? std::make_shared<const MeshView>(shapes::torus(2, 1, 48, 24))
+                                                            : test::corpus_mesh(name);
+        const SegmentationResult r = segment(*mesh);
         EXPECT_TRUE(r.zeros.zeros.empty());
-        EXPECT_TRUE(r.trajectories.empty());
-        ASSERT_EQ(r.patches.info.size(), 1u);
-        EXPECT_EQ(r.patches.info[0].type, kernels::PatchInfo::Type::Disk);  // the fundamental domain
-        EXPECT_EQ(flipped(r), 0);
-        // The complex's edges are the cut graph, with the one patch on both sides.
-        ASSERT_FALSE(r.complex.pieces.empty());
-        for (const auto& piece : r.complex.pieces) {
-            EXPECT_NE(piece.label, kernels::kNoBorder);
-            EXPECT_EQ(piece.patches, (std::array<Index, 2>{0, 0}));
+        ASSERT_EQ(r.trajectories.size(), 2u);
+        EXPECT_EQ(r.trajectories[0].family, kernels::TrajectoryFamily::Vertical);
+        EXPECT_EQ(r.trajectories[1].family, kernels::TrajectoryFamily::Horizontal);
+        for (const Trajectory& t : r.trajectories) {
+            EXPECT_EQ(t.end, Trajectory::End::Zero);  // back at the corner
+            EXPECT_EQ(t.end_vertex, r.trajectories[0].start_vertex);
         }
+        EXPECT_EQ(r.cut.skipped_segments, 0);
+        ASSERT_EQ(r.patches.info.size(), 1u);
+        const kernels::PatchInfo& p = r.patches.info[0];
+        EXPECT_EQ(p.type, kernels::PatchInfo::Type::Disk);
+        EXPECT_EQ(flipped(r), 0);
+        EXPECT_LT(p.rectangle_error, 1e-12);
+        // Sides |A| and |A| Im(B / A), B / A the reduced modulus of the form's periods, which is
+        // the period matrix's up to the discretisation (the matrix comes from the Hodge star).
+        const Complex modulus = r.torus_periods[1] / r.torus_periods[0];
+        const Complex period_matrix_modulus = kernels::reduce_modulus(r.conformal.basis.period_matrix(0, 0));
+        EXPECT_LT(std::abs(modulus - period_matrix_modulus), 5e-3 * std::abs(modulus));
+        EXPECT_NEAR(p.width, std::abs(r.torus_periods[0]), 1e-9 * p.width);
+        EXPECT_NEAR(p.height / p.width, modulus.imag(), 1e-9 * modulus.imag());
+        // The complex: one corner, the two sides (loops at it), the one patch on both sides.
+        EXPECT_EQ(r.complex.nodes.size(), 1u);
+        ASSERT_EQ(r.complex.pieces.size(), 2u);
+        for (const auto& piece : r.complex.pieces) EXPECT_EQ(piece.patches, (std::array<Index, 2>{0, 0}));
+    }
+    // The torus of revolution R = 2, r = 1 is conformally the rectangle of modulus i sqrt(3).
+    const SegmentationResult round = segment(shapes::torus(2, 1, 96, 48));
+    const Complex modulus = round.torus_periods[1] / round.torus_periods[0];
+    EXPECT_NEAR(modulus.real(), 0, 1e-2);
+    EXPECT_NEAR(modulus.imag(), std::sqrt(3.0), 1e-2);
+}
+
+// Where the form folds (a torus stretched 1000x: needles of aspect 1000), straight sides do not
+// exist: the torus opens along its homology cut graph, and the fold repair lays it out.
+TEST(Segmentation, FoldedTorusOpensAlongItsHomologyCut) {
+    MeshView stretched = shapes::torus(1, 0.4, 40, 20);
+    stretched.V.col(0) *= 1000;
+    const SegmentationResult r = segment(stretched);
+    EXPECT_GT(r.regular.flipped_faces, 0);
+    EXPECT_TRUE(r.zeros.zeros.empty());
+    EXPECT_TRUE(r.trajectories.empty());
+    ASSERT_EQ(r.patches.info.size(), 1u);
+    EXPECT_EQ(r.patches.info[0].type, kernels::PatchInfo::Type::Disk);
+    EXPECT_EQ(flipped(r), 0);
+    ASSERT_FALSE(r.complex.pieces.empty());
+    for (const auto& piece : r.complex.pieces) {
+        EXPECT_NE(piece.label, kernels::kNoBorder);
+        EXPECT_EQ(piece.patches, (std::array<Index, 2>{0, 0}));
     }
 }
 

@@ -35,6 +35,43 @@ TEST(ReduceModulus, MapsIntoTheFundamentalDomain) {
         for (double y : {0.01, 0.3, 1.0, 9.0}) EXPECT_TRUE(in_fundamental_domain(reduce_modulus({x, y})));
 }
 
+TEST(ReduceLattice, SameLatticeShortestBasisPositivelyOriented) {
+    for (const auto& [a, b] : {std::pair{Complex(1, 0), Complex(3.3, 1.4)}, {Complex(0.7, -6.1), Complex(1.6, 5.4)},
+                               {Complex(0.76, 0.10), Complex(1.59, -8.76)}, {Complex(2, 1), Complex(-1, 0.02)}}) {
+        const auto [A, B] = reduce_lattice(a, b);
+        EXPECT_GT((B / A).imag(), 0);
+        EXPECT_LE(std::abs(A), std::abs(B) * (1 + 1e-12));
+        EXPECT_LE(std::abs((B / A).real()), 0.5 + 1e-12);
+        // A and B are integer combinations of a and b with determinant +-1 (the same lattice).
+        const auto coefficients = [&](Complex z) {
+            const double det = a.real() * b.imag() - a.imag() * b.real();
+            return std::pair{(z.real() * b.imag() - z.imag() * b.real()) / det,
+                             (a.real() * z.imag() - a.imag() * z.real()) / det};
+        };
+        const auto [p, q] = coefficients(A);
+        const auto [r, t] = coefficients(B);
+        for (double c : {p, q, r, t}) EXPECT_NEAR(c, std::round(c), 1e-9);
+        EXPECT_NEAR(std::abs(std::round(p) * std::round(t) - std::round(q) * std::round(r)), 1, 1e-12);
+        const Complex m = (b / a).imag() > 0 ? b / a : -b / a;
+        EXPECT_NEAR(std::abs(B / A - reduce_modulus(m)), 0, 1e-9);
+    }
+    EXPECT_THROW(reduce_lattice({1, 0}, {2, 0}), InvalidInput);
+}
+
+// The affine step: the periods become the rectangle's sides, and values in between follow
+// real-linearly.
+TEST(RectangleForm, SendsThePeriodsToTheSides) {
+    const Complex A(0.7, -0.3), B(0.9, 2.2);
+    Eigen::VectorXcd tau(3);
+    tau << A, B, 0.25 * A - 2.0 * B;
+    const Eigen::VectorXcd out = rectangle_form(tau, A, B);
+    const double height = std::abs(A) * (B / A).imag();
+    EXPECT_NEAR(std::abs(out(0) - Complex(std::abs(A), 0)), 0, 1e-12);
+    EXPECT_NEAR(std::abs(out(1) - Complex(0, height)), 0, 1e-12);
+    EXPECT_NEAR(std::abs(out(2) - (0.25 * out(0) - 2.0 * out(1))), 0, 1e-12);
+    EXPECT_THROW(rectangle_form(tau, B, A), InvalidInput);  // negatively oriented
+}
+
 TEST(GenericCoefficients, DistinctAndNonzero) {
     const Eigen::VectorXd d = generic_form_coefficients(30);
     std::set<double> seen(d.data(), d.data() + d.size());

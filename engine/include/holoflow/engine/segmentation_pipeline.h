@@ -1,5 +1,7 @@
 #pragma once
 
+#include <array>
+#include <complex>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -58,7 +60,13 @@ struct SegmentationResult {
     SegmentMode mode = SegmentMode::Layout;
     StageTimes timings_ms;                    //!< conformal stages, then segmentation stages
 
-    //! A closed genus-1 input: no zeros; it opens along its homology cut into one parallelogram.
+    //! A closed genus-1 input: the segmentation form's periods reduced (kernels::reduce_lattice),
+    //! {0, 0} otherwise. regular.tau is then the form made a rectangle's (kernels::rectangle_form),
+    //! and the torus opens along the vertical and horizontal line through vertex 0, one period
+    //! each, into one rectangle; along its homology cut where those lines do not close.
+    std::array<std::complex<double>, 2> torus_periods{};
+
+    //! A closed genus-1 input: no zeros; it opens into one parallelogram.
     bool is_torus() const { return !conformal.double_covered && conformal.basis.genus == 1; }
 };
 

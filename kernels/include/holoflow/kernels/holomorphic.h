@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <complex>
 #include <span>
 
@@ -56,6 +57,16 @@ Eigen::MatrixXcd holomorphic_forms(const Eigen::MatrixXd& omega, const HodgeStar
 //! Genus-1 period reduced to the standard fundamental domain of SL(2, Z):
 //! |Re| <= 1/2, |tau| >= 1 (Im tau > 0 expected). Torus moduli compare after this.
 std::complex<double> reduce_modulus(std::complex<double> tau);
+
+//! The same reduction on a lattice basis: periods (a, b) of a genus-1 form become a basis (A, B)
+//! of the same lattice with B / A = reduce_modulus(+-b / a): A a shortest period, B a shortest
+//! one not parallel to it, Im(B / A) > 0. \throw InvalidInput if a and b are parallel.
+std::array<std::complex<double>, 2> reduce_lattice(std::complex<double> a, std::complex<double> b);
+
+//! The form composed with the real-linear map that sends the period A to |A| and B to
+//! i |A| Im(B / A): the torus' parallelogram becomes a rectangle (the affine step of a
+//! parallelogram patch; conformal where Re(B / A) = 0). Still closed; orientation kept.
+Eigen::VectorXcd rectangle_form(const Eigen::VectorXcd& tau, std::complex<double> A, std::complex<double> B);
 
 }  // namespace holoflow::kernels
 
