@@ -305,7 +305,12 @@ kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg,
 // closing after one period; none unless both close there (rounding, folds of the form).
 std::vector<Trajectory> torus_sides(const kernels::RegularisedForm& reg, Index corner) {
     const TrajectoryFamily both[] = {TrajectoryFamily::Vertical, TrajectoryFamily::Horizontal};
-    const std::vector<Trajectory> traced = kernels::trace_trajectories(reg.mesh, reg.tau, std::span(&corner, 1), both);
+    // Both families close (the form's u and v have one period each), so no length cap: a long
+    // thin torus has sides hundreds of times the square root of its area.
+    kernels::TraceOptions options;
+    options.closed_leaves = true;
+    const std::vector<Trajectory> traced =
+        kernels::trace_trajectories(reg.mesh, reg.tau, std::span(&corner, 1), both, options);
     // Each line is traced from both ends of its one curve; the first copy is kept.
     std::vector<Trajectory> sides;
     for (TrajectoryFamily family : both) {

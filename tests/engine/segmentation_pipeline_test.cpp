@@ -270,6 +270,13 @@ TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
         ASSERT_EQ(r.complex.pieces.size(), 2u);
         for (const auto& piece : r.complex.pieces) EXPECT_EQ(piece.patches, (std::array<Index, 2>{0, 0}));
     }
+    // A torus 2000 times as long as thick: its long side is far beyond the length cap of
+    // critical trajectories (16 sqrt(area)).
+    const SegmentationResult thin = segment(shapes::torus(1, 0.0005, 1000, 6));
+    ASSERT_EQ(thin.trajectories.size(), 2u);
+    ASSERT_EQ(thin.patches.info.size(), 1u);
+    EXPECT_GT((thin.torus_periods[1] / thin.torus_periods[0]).imag(), 1000);
+    EXPECT_LT(thin.patches.info[0].rectangle_error, 1e-12);
     // The torus of revolution R = 2, r = 1 is conformally the rectangle of modulus i sqrt(3).
     const SegmentationResult round = segment(shapes::torus(2, 1, 96, 48));
     const Complex modulus = round.torus_periods[1] / round.torus_periods[0];
