@@ -234,10 +234,43 @@ Index embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Uni
         if (e == first_border) break;
     }
     const Index m = static_cast<Index>(loop.size());
+    const auto lay_out_inside = [&](const Eigen::MatrixXd& x) {
+        const PatchEdges edges = patch_edges(mesh, points, faces);
+        return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
+            Eigen::MatrixXd y = x;
+            if (!harmonic_inside(edges, weight, {}, is_border, y)) return false;
+            out.resize(3 * faces.size());
+            for (std::size_t i = 0; i < faces.size(); ++i)
+                for (int k = 0; k < 3; ++k) {
+                    const Index q = points.of(3 * faces[i] + k);
+                    out[3 * i + k] = Complex(y(q, 0), y(q, 1));
+                }
+            return true;
+        });
+    };
+    const std::array<Complex, 4> corner{Complex(0, 0), Complex(w, 0), Complex(w, h), Complex(0, h)};
+    if (m == 3) {
+        // A border of three points (a sliver between curves, often flat in the form's uv): on
+        // three of the rectangle's corners, the assignment in border order nearest the form's.
+        double best = std::numeric_limits<double>::infinity();
+        std::array<Complex, 3> at{};
+        for (int skipped = 0; skipped < 4; ++skipped)
+            for (int shift = 0; shift < 3; ++shift) {
+                std::array<Complex, 3> trial{};
+                double cost = 0;
+                for (int j = 0; j < 3; ++j) {
+                    trial[(shift + j) % 3] = corner[(skipped + 1 + j) % 4];
+                    cost += std::norm(corner_uv[loop[(shift + j) % 3]] - trial[(shift + j) % 3]);
+                }
+                if (cost < best) best = cost, at = trial;
+            }
+        Eigen::MatrixXd x(n, 2);
+        for (Index i = 0; i < 3; ++i) x.row(points.of(loop[i])) << at[i].real(), at[i].imag();
+        return lay_out_inside(x);
+    }
     if (m < 4) return -1;
     // Corners: four border points in counter-clockwise order, nearest the rectangle's corners
     // (least sum of squared distances; first best on ties).
-    const std::array<Complex, 4> corner{Complex(0, 0), Complex(w, 0), Complex(w, h), Complex(0, h)};
     std::array<Index, 4> at{};
     {
         const auto cost = [&](int c, Index i) { return std::norm(corner_uv[loop[i]] - corner[c]); };
@@ -320,18 +353,7 @@ Index embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Uni
             place(begin + j, a + s * (b - a) + 4 * s * (1 - s) * outward);
         }
     }
-    const PatchEdges edges = patch_edges(mesh, points, faces);
-    return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
-        Eigen::MatrixXd y = x;
-        if (!harmonic_inside(edges, weight, {}, is_border, y)) return false;
-        out.resize(3 * faces.size());
-        for (std::size_t i = 0; i < faces.size(); ++i)
-            for (int k = 0; k < 3; ++k) {
-                const Index q = points.of(3 * faces[i] + k);
-                out[3 * i + k] = Complex(y(q, 0), y(q, 1));
-            }
-        return true;
-    });
+    return lay_out_inside(x);
 }
 
 // The form's coordinate along a loop (t[0] = 0 up to the period at t[m]) made strictly

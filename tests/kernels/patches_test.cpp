@@ -201,6 +201,37 @@ TEST(PatchRepair, EarOnOneSideGetsAnArea) {
     EXPECT_LE(p.info[0].rectangle_error, kBulge);
 }
 
+// A patch with three border points whose image is flat (a sliver between curves: the three on
+// one line) and folded over its inside point: its border goes on three rectangle corners (the
+// nearest assignment in border order), the inside point between them.
+TEST(PatchRepair, ThreePointBorderGoesOnThreeCorners) {
+    PointMatrix V(4, 3);
+    V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0.3, 0.3, 0;
+    enum : Index { a, b, c, q };
+    TriangleMatrix F(3, 3);
+    F << a, b, q, b, c, q, c, a, q;
+    const MeshView m = make_mesh_view(V, F);
+    const std::vector<Complex> image{Complex(0, 0), Complex(1, 1), Complex(0.4, 0.4), Complex(0.2, 0.7)};
+    const std::vector<char> border(m.n_edges(), 0);
+    const Patches folded = compute_patches(m, form_of(m, image), border);
+    ASSERT_EQ(folded.info[0].type, PatchInfo::Type::Disk);
+    ASSERT_GT(folded.info[0].flipped_uv_triangles, 0);
+    const Patches p = repair_folded_patches(m, border, folded);
+    EXPECT_TRUE(p.info[0].repaired());
+    EXPECT_EQ(p.info[0].flipped_uv_triangles, 0);
+    EXPECT_GT(smallest_relative_area(m, p, 0), 1e-3);
+    EXPECT_EQ(p.info[0].rectangle_error, 0);
+    // a and b keep their corners, c (nearer the top-left than the bottom-right) takes (0, 1).
+    const auto uv_of = [&](Index v) {
+        for (Index h = 0; h < m.n_halfedges(); ++h)
+            if (m.tail(h) == v) return p.corner_uv[h];
+        return Complex(-1, -1);
+    };
+    EXPECT_EQ(uv_of(a), Complex(0, 0));
+    EXPECT_EQ(uv_of(b), Complex(1, 1));
+    EXPECT_EQ(uv_of(c), Complex(0, 1));
+}
+
 // A tube whose form runs around it and up it (around_and_up, unsheared): one cylinder patch,
 // its two loops iso-v lines. `bump` moves vertex v's image by d (an exact form added: the
 // period stays).
