@@ -277,8 +277,21 @@ kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg,
     F.row(f) << m.F(f, 0), m.F(f, 1), q;
     F.row(nf) << m.F(f, 1), m.F(f, 2), q;
     F.row(nf + 1) << m.F(f, 2), m.F(f, 0), q;
-    kernels::RegularisedForm out = reg;
-    out.mesh = make_mesh_view(std::move(V), std::move(F));
+    // Twins carried over (no new pairing by vertex pairs): f's sides 1 and 2 become the first
+    // sides of the new faces; the three spokes pair up.
+    std::vector<Index> twin(m.twin.begin(), m.twin.end());
+    twin.resize(3 * static_cast<std::size_t>(nf + 2), kNoHalfedge);
+    const Index b_side = 3 * nf, c_side = 3 * (nf + 1);
+    for (const auto& [old_h, new_h] : {std::pair{3 * f + 1, b_side}, {3 * f + 2, c_side}}) {
+        twin[new_h] = m.twin[old_h];
+        if (m.twin[old_h] != kNoHalfedge) twin[m.twin[old_h]] = new_h;
+    }
+    const auto pair_up = [&](Index h, Index k) { twin[h] = k, twin[k] = h; };
+    pair_up(3 * f + 1, b_side + 2);      // b -> q, q -> b
+    pair_up(b_side + 1, c_side + 2);     // c -> q, q -> c
+    pair_up(c_side + 1, 3 * f + 2);      // a -> q, q -> a
+    kernels::RegularisedForm out;
+    out.mesh = make_mesh_view(std::move(V), std::move(F), std::move(twin));
     // Each new face lies in an old one (the pieces of f in f); positions in that face's chart.
     const auto position = [&](Index old_face, Index v) {
         Complex point = 0;
@@ -295,9 +308,17 @@ kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg,
         const Index old_face = g < nf && g != f ? g : f;
         out.tau(e) = position(old_face, out.mesh.head(h)) - position(old_face, out.mesh.tail(h));
     }
+    out.original_vertex = reg.original_vertex;
     out.original_vertex.push_back(-1);
+    out.original_face = reg.original_face;
     out.original_face.push_back(reg.original_face[f]);
     out.original_face.push_back(reg.original_face[f]);
+    out.region_vertex = reg.region_vertex;
+    out.removed_vertices = reg.removed_vertices;
+    out.failed_regions = reg.failed_regions;
+    out.merged_regions = reg.merged_regions;
+    out.flipped_faces = reg.flipped_faces;
+    out.edge_flips = reg.edge_flips;
     return out;
 }
 
