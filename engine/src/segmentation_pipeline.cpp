@@ -51,6 +51,23 @@ std::array<Complex, 2> generator_periods(const SegmentationResult& r) {
     return period;
 }
 
+// A torus's regularised mesh edges on its homology cut graph: kHomologyCut, else kNoBorder. The
+// mesh keeps the surface's vertices and faces (no fans), but for the torus's corner point a
+// face may be split: each halfedge is found among its surface face's by its two vertices.
+std::vector<Index> homology_cut_labels(const SegmentationResult& r) {
+    const MeshView& surface = *r.conformal.surface;
+    const MeshView& m = r.regular.mesh;
+    std::vector<Index> label(m.n_edges(), kernels::kNoBorder);
+    for (Index e = 0; e < m.n_edges(); ++e) {
+        const Index h = m.edge_halfedge[e], face = r.regular.original_face[MeshView::face(h)];
+        for (Index surface_h = 3 * face; surface_h < 3 * face + 3; ++surface_h)
+            if (surface.tail(surface_h) == m.tail(h) && surface.head(surface_h) == m.head(h) &&
+                r.conformal.homology.cut_edge[surface.halfedge_edge[surface_h]])
+                label[e] = kHomologyCut;
+    }
+    return label;
+}
+
 // Clusters of the working surface as regions of the traced surface. On a double cover only the
 // clusters that reach the first copy count (the others are their mirrors); mirrored vertices
 // fold back onto the first copy.
@@ -324,12 +341,14 @@ kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg,
 
 // The torus's rectangle sides: the vertical and the horizontal line through `corner`, each
 // closing after one period; none unless both close there (rounding, folds of the form).
-std::vector<Trajectory> torus_sides(const kernels::RegularisedForm& reg, Index corner) {
+std::vector<Trajectory> torus_sides(const kernels::RegularisedForm& reg, Index corner,
+                                    const std::array<Complex, 2>& periods) {
     const TrajectoryFamily both[] = {TrajectoryFamily::Vertical, TrajectoryFamily::Horizontal};
-    // Both families close (the form's u and v have one period each), so no length cap: a long
-    // thin torus has sides hundreds of times the square root of its area.
+    // A side that closes is one period long: |A| Im(B / A) vertical, |A| horizontal, in units of
+    // sqrt(area) = |A| sqrt(Im(B / A)) at most sqrt(Im(B / A)) (>= sqrt(3) / 2 when reduced). A
+    // curve lost in a fold stops a little after that.
     kernels::TraceOptions options;
-    options.closed_leaves = true;
+    options.length_cap = 1.5 * std::sqrt((periods[1] / periods[0]).imag()) + 1;
     const std::vector<Trajectory> traced =
         kernels::trace_trajectories(reg.mesh, reg.tau, std::span(&corner, 1), both, options);
     // Each line is traced from both ends of its one curve; the first copy is kept.
@@ -348,16 +367,12 @@ void trace(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
     if (r.is_torus()) {
-        // Straight lines need a form without folds (else: the homology cut, repaired). The corner
-        // is a point inside face 0, away from the mesh's vertex rows: on a symmetric mesh the
-        // lines through a vertex run through other vertices and the cut would leave slivers.
-        if (r.regular.flipped_faces > 0) {
-            clock.lap("tracing");
-            return;
-        }
+        // The corner is a point inside face 0, away from the mesh's vertex rows: on a symmetric
+        // mesh the lines through a vertex run through other vertices and the cut would leave
+        // slivers. (Where the form folds, the lines may not make one disk: see cut.)
         kernels::RegularisedForm split = with_point_in_face(r.regular, 0, {0.30711, 0.32735, 0.36554});
         const Index corner = split.mesh.n_vertices() - 1;
-        r.trajectories = torus_sides(split, corner);
+        r.trajectories = torus_sides(split, corner, r.torus_periods);
         if (!r.trajectories.empty()) r.regular = std::move(split);
         clock.lap("tracing");
         return;
@@ -376,19 +391,7 @@ void trace(SegmentationWork& work) {
 void cut(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
-    const MeshView& surface = *r.conformal.surface;
-    // A torus whose sides did not close opens along its homology cut graph. Without fans the
-    // regularised mesh keeps the surface's faces and corners.
     std::vector<Index> extra_border;
-    if (r.is_torus() && r.trajectories.empty()) {
-        const MeshView& m = r.regular.mesh;
-        extra_border.assign(m.n_edges(), kernels::kNoBorder);
-        for (Index e = 0; e < m.n_edges(); ++e) {
-            const Index h = m.edge_halfedge[e];
-            const Index surface_h = 3 * r.regular.original_face[MeshView::face(h)] + h % 3;
-            if (r.conformal.homology.cut_edge[surface.halfedge_edge[surface_h]]) extra_border[e] = kHomologyCut;
-        }
-    }
     std::vector<char> border;
     const auto cut_and_fill = [&] {
         r.cut = kernels::cut_along_trajectories(r.regular.mesh, r.regular.tau, r.trajectories, extra_border);
@@ -397,6 +400,14 @@ void cut(SegmentationWork& work) {
         r.patches = kernels::compute_patches(r.cut.mesh, r.cut.tau, border);
     };
     cut_and_fill();
+    // A torus whose sides did not close, or cut it into anything but one disk (a fold of the
+    // form they crossed), opens along its homology cut graph instead.
+    if (r.is_torus() && (r.trajectories.empty() || r.cut.skipped_segments > 0 || r.patches.info.size() != 1 ||
+                         r.patches.info[0].type != kernels::PatchInfo::Type::Disk)) {
+        r.trajectories.clear();
+        extra_border = homology_cut_labels(r);
+        cut_and_fill();
+    }
     // Layout mode promises rectangles. A cylinder (closed curves that no critical trajectory
     // crosses) is opened by the transversal through a vertex inside it, and the cut redone.
     for (int round = 0; round < kCylinderRounds && work.options.mode == SegmentMode::Layout && !r.is_torus(); ++round) {

@@ -239,7 +239,9 @@ TEST(Segmentation, LayoutOpensCylindersWithoutAnInsideVertex) {
 // The torus opens along the vertical and the horizontal line through one point, one period
 // each: a rectangle, the parallelogram of its reduced periods made one by the affine step.
 TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
-    for (const char* name : {"revolution", "knot", "rotor"}) {
+    // P: 52 triangles, its form folds (3 flipped image triangles), far from the Hodge star's
+    // period matrix; its sides still close and make one disk.
+    for (const char* name : {"revolution", "knot", "rotor", "P"}) {
         SCOPED_TRACE(name);
         const auto mesh = std::string(name) == "revolution" ? std::make_shared<const MeshView>(shapes::torus(2, 1, 48, 24))
                                                             : test::corpus_mesh(name);
@@ -262,7 +264,9 @@ TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
         // the period matrix's up to the discretisation (the matrix comes from the Hodge star).
         const Complex modulus = r.torus_periods[1] / r.torus_periods[0];
         const Complex period_matrix_modulus = kernels::reduce_modulus(r.conformal.basis.period_matrix(0, 0));
-        EXPECT_LT(std::abs(modulus - period_matrix_modulus), 5e-3 * std::abs(modulus));
+        if (std::string(name) != "P") {
+            EXPECT_LT(std::abs(modulus - period_matrix_modulus), 5e-3 * std::abs(modulus));
+        }
         EXPECT_NEAR(p.width, std::abs(r.torus_periods[0]), 1e-9 * p.width);
         EXPECT_NEAR(p.height / p.width, modulus.imag(), 1e-9 * modulus.imag());
         // The complex: one corner, the two sides (loops at it), the one patch on both sides.
@@ -284,8 +288,9 @@ TEST(Segmentation, TorusHasNoZerosAndOneParallelogram) {
     EXPECT_NEAR(modulus.imag(), std::sqrt(3.0), 1e-2);
 }
 
-// Where the form folds (a torus stretched 1000x: needles of aspect 1000), straight sides do not
-// exist: the torus opens along its homology cut graph, and the fold repair lays it out.
+// Where the form folds badly (a torus stretched 1000x: needles of aspect 1000), the sides cut
+// it into more than one disk: the torus opens along its homology cut graph instead (the mesh
+// with its corner point), and the fold repair lays it out.
 TEST(Segmentation, FoldedTorusOpensAlongItsHomologyCut) {
     MeshView stretched = shapes::torus(1, 0.4, 40, 20);
     stretched.V.col(0) *= 1000;
