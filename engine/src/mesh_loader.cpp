@@ -38,6 +38,12 @@ Vec3 point(const PolygonSoup& soup, std::int64_t v) {
 
 // Splits one polygon (corners already checked) into triangles appended to `out`: quads along the
 // shorter diagonal, larger polygons by ear clipping in the plane of their Newell normal.
+// Corners collinear or coincident, to rounding.
+bool zero_area(const Vec3& a, const Vec3& b, const Vec3& c) {
+    const double longest = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+    return (b - a).cross(c - a).norm() <= kZeroAreaRelative * longest;
+}
+
 void triangulate(const PolygonSoup& soup, const std::int64_t* corner, std::size_t n,
                  std::vector<std::array<std::int64_t, 3>>& out) {
     if (n == 3) {
@@ -45,9 +51,15 @@ void triangulate(const PolygonSoup& soup, const std::int64_t* corner, std::size_
         return;
     }
     if (n == 4) {
+        // The shorter diagonal, unless only the other one gives two triangles with an area (a
+        // quad with a straight corner, e.g. a CAD face with a vertex on its edge).
+        const auto flat = [&](int i, int j, int k) {
+            return zero_area(point(soup, corner[i]), point(soup, corner[j]), point(soup, corner[k]));
+        };
+        const bool split02 = !flat(0, 1, 2) && !flat(0, 2, 3), split13 = !flat(0, 1, 3) && !flat(1, 2, 3);
         const double d02 = (point(soup, corner[0]) - point(soup, corner[2])).squaredNorm();
         const double d13 = (point(soup, corner[1]) - point(soup, corner[3])).squaredNorm();
-        if (d02 <= d13) {
+        if (split02 != split13 ? split02 : d02 <= d13) {
             out.push_back({corner[0], corner[1], corner[2]});
             out.push_back({corner[0], corner[2], corner[3]});
         } else {
@@ -298,9 +310,7 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
     for (std::size_t t = 0; t < triangles.size(); ++t) {
         const Vec3 a = point(soup, triangles[t][0]), b = point(soup, triangles[t][1]),
                    c = point(soup, triangles[t][2]);
-        const double longest =
-            std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
-        if ((b - a).cross(c - a).norm() <= kZeroAreaRelative * longest)
+        if (zero_area(a, b, c))
             fail(MeshErrorKind::ZeroAreaFace,
                  "triangle " + std::to_string(t) + " (vertices " + std::to_string(triangles[t][0]) +
                      ", " + std::to_string(triangles[t][1]) + ", " +

@@ -104,6 +104,19 @@ TEST(MeshLoader, PolygonsAreTriangulated) {
     EXPECT_DOUBLE_EQ(area, 3.0);
 }
 
+// A quad with a straight corner (vertex 1 on the side 0-2, as a CAD face with a vertex on its
+// edge): its shorter diagonal 0-2 would make a flat triangle, so it splits along 1-3.
+TEST(MeshLoader, QuadWithAStraightCornerSplitsAlongTheOtherDiagonal) {
+    const PolygonSoup s = soup_of({0, 0, 0, 1, 0, 0, 2, 0, 0, 1, 5, 0}, {{0, 1, 2, 3}});
+    const LoadedMesh m = mesh_from_soup(s);
+    ASSERT_EQ(m.mesh->n_faces(), 2);
+    for (Index f = 0; f < 2; ++f) {
+        const Eigen::Vector3d a = m.mesh->V.row(m.mesh->F(f, 0)), b = m.mesh->V.row(m.mesh->F(f, 1)),
+                              c = m.mesh->V.row(m.mesh->F(f, 2));
+        EXPECT_NEAR(0.5 * (b - a).cross(c - a).norm(), 2.5, 1e-12);
+    }
+}
+
 TEST(MeshLoader, UnreferencedVerticesAreDropped) {
     PolygonSoup s = octahedron();
     s.positions.insert(s.positions.end(), {7, 7, 7, 8, 8, 8});
