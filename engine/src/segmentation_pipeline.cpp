@@ -107,7 +107,7 @@ struct SlicedSurface {
 // midpoint subdivision, which keeps the shape and the vertex ids, and sliced again.
 SlicedSurface slice_at_tips(const MeshView& input, const kernels::Topology& topology, const SegmentOptions& options,
                             SegmentationResult& r) {
-    constexpr int kMaxRefinements = 4;
+    constexpr int kMaxRefinements = 8;  // thin triangles need more; the face cap bounds the cost
     constexpr Index kMaxRefinedFaces = 200000;  // refining is for coarse meshes only
     std::shared_ptr<const MeshView> mesh(std::shared_ptr<const MeshView>{}, &input);
     for (int refinement = 0;; ++refinement) {
@@ -585,6 +585,11 @@ nlohmann::json complex_report(const SegmentationResult& r) {
 
 void write_segmentation_folder(const std::filesystem::path& folder, const SegmentationResult& result,
                                const nlohmann::json& report) {
+    write_segmentation_folder(folder, std::span(&result, 1), report);
+}
+
+void write_segmentation_folder(const std::filesystem::path& folder, std::span<const SegmentationResult> result,
+                               const nlohmann::json& report) {
     prepare_output_folder(folder);
     remove_stale_temporaries(folder, {"segments.ply", "patches.obj", "trajectories.obj", "domains.svg",
                                       "complex.json", "segmentation.json"});
@@ -614,6 +619,123 @@ SegmentationPicture segmentation_picture(const SegmentationResult& r) {
                           : SegmentationPicture::Family::Horizontal;
         for (Index v : piece.vertices) line.points.push_back(r.cut.mesh.V.row(v).transpose());
         pic.trajectories.push_back(std::move(line));
+    }
+    return pic;
+}
+
+nlohmann::json segmentation_report(std::span<const SegmentationResult> components) {
+    HOLOFLOW_REQUIRE(!components.empty(), "no component to report");
+    if (components.size() == 1) return segmentation_report(components[0]);
+    nlohmann::json parts = nlohmann::json::array();
+    for (const SegmentationResult& r : components) parts.push_back(segmentation_report(r));
+    // Every key of the first report, merged over all: numbers add up, objects of numbers add up
+    // per key, lists join (entries tagged with their component); the rest as below.
+    nlohmann::json total = parts[0];
+    const auto add = [](nlohmann::json& into, const nlohmann::json& value) {
+        if (into.is_number_integer() && value.is_number_integer()) into = into.get<std::int64_t>() + value.get<std::int64_t>();
+        else if (into.is_number() && value.is_number()) into = into.get<double>() + value.get<double>();
+    };
+    for (auto& [key, value] : total.items()) {
+        if (value.is_array()) {
+            nlohmann::json joined = nlohmann::json::array();
+            for (std::size_t c = 0; c < parts.size(); ++c)
+                for (nlohmann::json entry : parts[c][key]) {
+                    if (!entry.is_object()) entry = {{"vertex", entry}};  // tips: vertex ids
+                    entry["component"] = c;
+                    joined.push_back(entry);
+                }
+            value = joined;
+        } else if (value.is_number()) {
+            for (std::size_t c = 1; c < parts.size(); ++c) add(value, parts[c][key]);
+        } else if (value.is_object() && key != "conformal_distortion") {
+            for (std::size_t c = 1; c < parts.size(); ++c)
+                for (const auto& [name, number] : parts[c][key].items()) {
+                    if (!value.contains(name)) value[name] = number;
+                    else add(value[name], number);
+                }
+        }
+    }
+    double rectangle_error = 0, distortion_max = 0, distortion_sum = 0, faces = 0;
+    bool double_covered = false;
+    for (const nlohmann::json& part : parts) {
+        rectangle_error = std::max(rectangle_error, part["rectangle_error_max"].get<double>());
+        distortion_max = std::max(distortion_max, part["conformal_distortion"]["max"].get<double>());
+        distortion_sum += part["conformal_distortion"]["mean"].get<double>() * part["faces"].get<double>();
+        faces += part["faces"].get<double>();
+        double_covered = double_covered || part["double_covered"].get<bool>();
+    }
+    total["rectangle_error_max"] = rectangle_error;
+    total["conformal_distortion"] = {{"mean", faces > 0 ? distortion_sum / faces : 0.0}, {"max", distortion_max}};
+    total["double_covered"] = double_covered;
+    total["torus_modulus"] = nullptr;
+    total["component_count"] = parts.size();
+    total["components"] = std::move(parts);
+    return total;
+}
+
+nlohmann::json complex_report(std::span<const SegmentationResult> components) {
+    HOLOFLOW_REQUIRE(!components.empty(), "no component to report");
+    if (components.size() == 1) return complex_report(components[0]);
+    nlohmann::json total = complex_report(components[0]);
+    const auto shifted = [](const nlohmann::json& id, std::int64_t by) {
+        return id.get<std::int64_t>() < 0 ? id.get<std::int64_t>() : id.get<std::int64_t>() + by;
+    };
+    std::int64_t vertices = components[0].cut.mesh.n_vertices(), nodes = total["vertices"].size(),
+                 edges = total["edges"].size(), patches = components[0].patches.info.size(),
+                 trajectories = components[0].trajectories.size();
+    for (std::size_t c = 1; c < components.size(); ++c) {
+        const SegmentationResult& r = components[c];
+        nlohmann::json part = complex_report(r);
+        for (nlohmann::json node : part["vertices"]) {
+            node["vertex"] = node["vertex"].get<std::int64_t>() + vertices;
+            total["vertices"].push_back(node);
+        }
+        for (nlohmann::json edge : part["edges"]) {
+            edge["from"] = shifted(edge["from"], nodes);
+            edge["to"] = shifted(edge["to"], nodes);
+            edge["trajectory"] = shifted(edge["trajectory"], trajectories);
+            for (auto& p : edge["patches"]) p = shifted(p, patches);
+            for (auto& v : edge["vertices"]) v = v.get<std::int64_t>() + vertices;
+            total["edges"].push_back(edge);
+        }
+        for (nlohmann::json face : part["faces"]) {
+            face["patch"] = face["patch"].get<std::int64_t>() + patches;
+            for (auto& e : face["edges"]) e = e.get<std::int64_t>() + edges;
+            total["faces"].push_back(face);
+        }
+        vertices += r.cut.mesh.n_vertices();
+        nodes += part["vertices"].size();
+        edges += part["edges"].size();
+        patches += r.patches.info.size();
+        trajectories += r.trajectories.size();
+    }
+    return total;
+}
+
+SegmentationPicture segmentation_picture(std::span<const SegmentationResult> components) {
+    HOLOFLOW_REQUIRE(!components.empty(), "no component to draw");
+    if (components.size() == 1) return segmentation_picture(components[0]);
+    std::vector<SegmentationPicture> parts;
+    Index n_vertices = 0, n_faces = 0;
+    for (const SegmentationResult& r : components) {
+        parts.push_back(segmentation_picture(r));
+        n_vertices += static_cast<Index>(parts.back().V.rows());
+        n_faces += static_cast<Index>(parts.back().F.rows());
+    }
+    SegmentationPicture pic;
+    pic.V.resize(n_vertices, 3);
+    pic.F.resize(n_faces, 3);
+    Index vertex_offset = 0, face_offset = 0, patch_offset = 0;
+    for (SegmentationPicture& part : parts) {
+        pic.V.middleRows(vertex_offset, part.V.rows()) = part.V;
+        pic.F.middleRows(face_offset, part.F.rows()) = part.F.array() + vertex_offset;
+        for (Index patch : part.face_patch) pic.face_patch.push_back(patch + patch_offset);
+        pic.corner_uv.insert(pic.corner_uv.end(), part.corner_uv.begin(), part.corner_uv.end());
+        pic.patch_size.insert(pic.patch_size.end(), part.patch_size.begin(), part.patch_size.end());
+        for (auto& line : part.trajectories) pic.trajectories.push_back(std::move(line));
+        vertex_offset += static_cast<Index>(part.V.rows());
+        face_offset += static_cast<Index>(part.F.rows());
+        patch_offset += part.n_patches();
     }
     return pic;
 }

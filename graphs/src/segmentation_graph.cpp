@@ -1,5 +1,6 @@
 #include "holoflow/graphs/segmentation_graph.h"
 
+#include <algorithm>
 #include <atomic>
 #include <exception>
 #include <span>
@@ -7,6 +8,7 @@
 
 #include "holoflow/engine/flow_graph.h"
 #include "holoflow/engine/output.h"
+#include "holoflow/kernels/topology.h"
 
 namespace holoflow::graphs {
 namespace {
@@ -24,7 +26,8 @@ struct ModelState {
     engine::Status status;
     engine::PolygonSoup soup;
     std::shared_ptr<const MeshView> mesh;
-    engine::SegmentationWork work;
+    std::vector<engine::SegmentationWork> parts;  // one per component of the mesh
+    std::vector<int> first_block;                 // per part, its first solve block; then the total
     std::atomic<int> blocks_left{0};
     std::vector<std::exception_ptr> block_errors;  // one slot per solve block
     ModelRun run;
@@ -34,9 +37,44 @@ struct ModelState {
     void release() {
         soup = {};
         mesh.reset();
-        work = {};
+        parts = {};
     }
 };
+
+// Runs `stage` on every part; on a mesh of several components an error names its component
+// (same error type, so the same kind and exit status).
+template <class Stage>
+void for_each_part(std::vector<engine::SegmentationWork>& parts, const Stage& stage) {
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+        const auto named = [&](const std::exception& e) {
+            return "component " + std::to_string(p) + " of " + std::to_string(parts.size()) + ": " + e.what();
+        };
+        try {
+            stage(parts[p]);
+        } catch (const InvalidInput& e) {
+            if (parts.size() == 1) throw;
+            throw InvalidInput(named(e));
+        } catch (const SolverFailure& e) {
+            if (parts.size() == 1) throw;
+            throw SolverFailure(named(e));
+        } catch (const engine::ResourceLimit& e) {
+            if (parts.size() == 1) throw;
+            throw engine::ResourceLimit(named(e));
+        }
+    }
+}
+
+// The stage times of the parts added up per stage, in the first part's order.
+engine::StageTimes summed_times(const std::vector<engine::SegmentationResult>& parts) {
+    engine::StageTimes sum = parts.front().timings_ms;
+    for (std::size_t p = 1; p < parts.size(); ++p)
+        for (const auto& [stage, ms] : parts[p].timings_ms) {
+            const auto it = std::find_if(sum.begin(), sum.end(), [&](const auto& entry) { return entry.first == stage; });
+            if (it == sum.end()) sum.emplace_back(stage, ms);
+            else it->second += ms;
+        }
+    return sum;
+}
 
 using ModelItem = Item<ModelState>;
 
@@ -68,16 +106,35 @@ struct Stages {
             std::chrono::duration<double, std::milli>(Clock::now() - start).count();  // into `load`
     }
     void prepare(ModelState& s) const {
-        s.work = segment_stage::prepare(s.mesh, options.segment);
-        s.run.outcome.genus = s.work.result.input_genus;
+        const kernels::Topology topology = kernels::compute_topology(*s.mesh);
+        if (topology.components <= 1) {
+            s.parts.push_back(segment_stage::prepare(s.mesh, options.segment));
+        } else {
+            HOLOFLOW_REQUIRE(options.segment.tips.empty(), "tips are vertex ids of a connected mesh; this one has " +
+                                                               std::to_string(topology.components) + " components");
+            std::vector<MeshView> components = kernels::component_meshes(*s.mesh, topology);
+            s.parts.resize(components.size());
+            for (std::size_t p = 0; p < components.size(); ++p) s.parts[p].input = std::make_shared<const MeshView>(std::move(components[p]));
+            for_each_part(s.parts, [&](engine::SegmentationWork& part) {
+                part = segment_stage::prepare(std::move(part.input), options.segment);
+            });
+        }
+        s.run.outcome.genus = 0;
+        for (const engine::SegmentationWork& part : s.parts) s.run.outcome.genus += part.result.input_genus;
     }
-    void laplacian(ModelState& s) const { conformal_stage::laplacian(s.work.conformal); }
+    void laplacian(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::laplacian(part.conformal); });
+    }
     void homology_and_factorise(ModelState& s) const {
-        conformal_stage::homology_and_factorise(s.work.conformal, cache);
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::homology_and_factorise(part.conformal, cache); });
     }
-    //! Sizes the block slots; returns the number of blocks.
+    //! Sizes the block slots; returns the number of blocks (of all parts).
     int begin_solves(ModelState& s) const {
-        const int blocks = conformal_stage::begin_solves(s.work.conformal);
+        s.first_block.assign(1, 0);
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) {
+            s.first_block.push_back(s.first_block.back() + conformal_stage::begin_solves(part.conformal));
+        });
+        const int blocks = s.first_block.back();
         s.block_errors.assign(blocks, nullptr);
         s.blocks_left.store(blocks);
         return blocks;
@@ -85,7 +142,11 @@ struct Stages {
     //! Solves one block into its own slot; never throws (the error waits in its slot).
     void solve(ModelState& s, int block) const {
         try {
-            s.work.conformal.potential_blocks[block] = conformal_stage::solve_block(s.work.conformal, block);
+            const std::size_t p =
+                std::upper_bound(s.first_block.begin(), s.first_block.end(), block) - s.first_block.begin() - 1;
+            const int local = block - s.first_block[p];
+            engine::ConformalWork& c = s.parts[p].conformal;
+            c.potential_blocks[local] = conformal_stage::solve_block(c, local);
         } catch (...) {
             s.block_errors[block] = std::current_exception();
         }
@@ -95,26 +156,45 @@ struct Stages {
         for (const std::exception_ptr& e : s.block_errors)
             if (e) std::rethrow_exception(e);
         s.block_errors.clear();
-        conformal_stage::end_solves(s.work.conformal);
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::end_solves(part.conformal); });
     }
-    void hodge_star(ModelState& s) const { conformal_stage::hodge_star(s.work.conformal); }
-    void integrate(ModelState& s) const { conformal_stage::integrate(s.work.conformal); }
-    void zeros(ModelState& s) const { segment_stage::zeros(s.work); }
-    void fans(ModelState& s) const { segment_stage::fans(s.work); }
-    void trace(ModelState& s) const { segment_stage::trace(s.work); }
-    void cut(ModelState& s) const { segment_stage::cut(s.work); }
+    void hodge_star(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::hodge_star(part.conformal); });
+    }
+    void integrate(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::integrate(part.conformal); });
+    }
+    void zeros(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { segment_stage::zeros(part); });
+    }
+    void fans(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { segment_stage::fans(part); });
+    }
+    void trace(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { segment_stage::trace(part); });
+    }
+    void cut(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { segment_stage::cut(part); });
+    }
     void write(ModelState& s) const {
         const auto start = Clock::now();
-        engine::SegmentationResult& r = s.work.result;
+        std::vector<engine::SegmentationResult> results;
+        for (engine::SegmentationWork& part : s.parts) results.push_back(std::move(part.result));
+        s.parts.clear();
         engine::ModelOutcome& o = s.run.outcome;
-        o.working_genus = r.conformal.basis.genus;
-        o.zeros = r.zeros.total_order;
-        o.patches = static_cast<std::int64_t>(r.patches.info.size());
-        o.timings_ms.insert(o.timings_ms.end(), r.timings_ms.begin(), r.timings_ms.end());
-        s.run.report = engine::segmentation_report(r);
+        o.working_genus = o.zeros = o.patches = 0;
+        for (const engine::SegmentationResult& r : results) {
+            o.working_genus += r.conformal.basis.genus;
+            o.zeros += r.zeros.total_order;
+            o.patches += static_cast<std::int64_t>(r.patches.info.size());
+        }
+        const engine::StageTimes times = summed_times(results);
+        o.timings_ms.insert(o.timings_ms.end(), times.begin(), times.end());
+        s.run.report = engine::segmentation_report(results);
         s.run.report["file"] = s.task().path;
-        if (!s.task().out_dir.empty()) engine::write_segmentation_folder(s.task().out_dir, r, s.run.report);
-        if (options.keep_results) s.run.result = std::make_shared<const engine::SegmentationResult>(std::move(r));
+        if (!s.task().out_dir.empty()) engine::write_segmentation_folder(s.task().out_dir, results, s.run.report);
+        if (options.keep_results)
+            s.run.components = std::make_shared<const std::vector<engine::SegmentationResult>>(std::move(results));
         s.release();
         o.timings_ms.emplace_back("write", std::chrono::duration<double, std::milli>(Clock::now() - start).count());
     }

@@ -88,4 +88,38 @@ Topology compute_topology(const MeshView& mesh) {
     return t;
 }
 
+std::vector<MeshView> component_meshes(const MeshView& mesh, const Topology& topology) {
+    HOLOFLOW_REQUIRE(static_cast<Index>(topology.face_component.size()) == mesh.n_faces(),
+                     "the topology must be this mesh's");
+    const std::size_t n_components = topology.per_component.size();
+    std::vector<Index> vertex_component(mesh.n_vertices(), -1), new_vertex(mesh.n_vertices()), new_face(mesh.n_faces());
+    for (Index f = 0; f < mesh.n_faces(); ++f)
+        for (int k = 0; k < 3; ++k) vertex_component[mesh.F(f, k)] = topology.face_component[f];
+    std::vector<Index> vertices(n_components, 0), faces(n_components, 0);
+    for (Index v = 0; v < mesh.n_vertices(); ++v) new_vertex[v] = vertices[vertex_component[v]]++;
+    for (Index f = 0; f < mesh.n_faces(); ++f) new_face[f] = faces[topology.face_component[f]]++;
+    std::vector<PointMatrix> V(n_components);
+    std::vector<TriangleMatrix> F(n_components);
+    std::vector<std::vector<Index>> twin(n_components);
+    for (std::size_t c = 0; c < n_components; ++c) {
+        V[c].resize(vertices[c], 3);
+        F[c].resize(faces[c], 3);
+        twin[c].assign(3 * static_cast<std::size_t>(faces[c]), kNoHalfedge);
+    }
+    for (Index v = 0; v < mesh.n_vertices(); ++v) V[vertex_component[v]].row(new_vertex[v]) = mesh.V.row(v);
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        const Index c = topology.face_component[f], g = new_face[f];
+        for (int k = 0; k < 3; ++k) {
+            F[c](g, k) = new_vertex[mesh.F(f, k)];
+            const Index t = mesh.twin[3 * f + k];
+            if (t != kNoHalfedge) twin[c][3 * g + k] = 3 * new_face[MeshView::face(t)] + t % 3;
+        }
+    }
+    std::vector<MeshView> out;
+    out.reserve(n_components);
+    for (std::size_t c = 0; c < n_components; ++c)
+        out.push_back(make_mesh_view(std::move(V[c]), std::move(F[c]), std::move(twin[c])));
+    return out;
+}
+
 }  // namespace holoflow::kernels

@@ -108,6 +108,24 @@ TEST(Cli, PinchedVerticesAreSplitUnlessRefused) {
     EXPECT_TRUE(refused.out.empty());
 }
 
+// knot2 is two knotted tori: each is segmented, the report holds both.
+TEST(Cli, SegmentTakesEveryComponent) {
+    test::TempDir dir;
+    const auto all = test::run_cli("segment '" + test::corpus("knot2.off") + "' -o '" + (dir.path() / "all").string() + "' --json");
+    ASSERT_EQ(all.status, 0) << all.err;
+    const auto j = nlohmann::json::parse(all.out);
+    EXPECT_EQ(j["component_count"], 2);
+    EXPECT_EQ(j["components"].size(), 2u);
+    EXPECT_EQ(j["genus"], 2);  // 1 + 1
+    EXPECT_EQ(j["patch_count"], 2);
+    const auto largest = test::run_cli("segment '" + test::corpus("knot2.off") + "' -o '" +
+                                       (dir.path() / "largest").string() + "' --json --component largest");
+    ASSERT_EQ(largest.status, 0) << largest.err;
+    const auto one = nlohmann::json::parse(largest.out);
+    EXPECT_FALSE(one.contains("component_count"));
+    EXPECT_EQ(one["genus"], 1);
+}
+
 TEST(Cli, MissingFileAndDirectory) {
     const auto missing = test::run_cli("info /nonexistent/dir/mesh.off");
     EXPECT_EQ(missing.status, engine::exit_status(MeshErrorKind::FileNotFound));

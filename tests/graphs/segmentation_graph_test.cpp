@@ -11,7 +11,9 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include "holoflow/engine/mesh_loader.h"
 #include "holoflow/engine/output.h"
+#include "holoflow/kernels/topology.h"
 #include "support/test_support.h"
 
 namespace holoflow::graphs {
@@ -24,7 +26,11 @@ using test::slurp;
 // Everything a model writes, timings left out (they are the only thing allowed to differ).
 std::string fingerprint(const ModelRun& run) {
     nlohmann::json report = run.report;
-    if (report.is_object()) report.erase("timings_ms");
+    if (report.is_object()) {
+        report.erase("timings_ms");
+        if (report.contains("components"))
+            for (auto& part : report["components"]) part.erase("timings_ms");
+    }
     std::ostringstream s;
     s << run.outcome.status.kind << '|' << run.outcome.status.stage << '|' << run.outcome.status.message << '|'
       << run.outcome.vertices << '|' << run.outcome.faces << '|' << run.outcome.genus << '|'
@@ -46,7 +52,8 @@ std::vector<std::string> mixed_collection(const TempDir& dir) {
                       "OFF\n5 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n0 -1 0\n3 0 1 2\n3 0 1 3\n3 0 1 4\n"),
             corpus("elephant.off"),
             (dir.path() / "missing.off").string(),
-            corpus("bull.off")};
+            corpus("bull.off"),
+            corpus("knot2.off")};  // two knotted tori: segmented per component
 }
 
 class ThreadSweep : public ::testing::TestWithParam<int> {};
@@ -80,12 +87,13 @@ TEST_P(ThreadSweep, GraphMatchesSerialTwin) {
     EXPECT_EQ(graph[1].outcome.status.kind, "header_mismatch");  // 4 vertices announced, 2 given
     EXPECT_EQ(graph[4].outcome.status.kind, "non_manifold_edge");
     EXPECT_EQ(graph[6].outcome.status.kind, "file_not_found");
-    for (std::size_t i : {0u, 2u, 3u, 5u, 7u}) {
+    for (std::size_t i : {0u, 2u, 3u, 5u, 7u, 8u}) {
         EXPECT_TRUE(graph[i].outcome.status.ok()) << paths[i] << ": " << graph[i].outcome.status.message;
         EXPECT_GT(graph[i].outcome.patches, 0);
     }
     EXPECT_EQ(graph[0].outcome.zeros, 2);  // eight: 2g - 2
     EXPECT_EQ(graph[5].outcome.zeros, 4);  // elephant
+    EXPECT_EQ(graph[8].report["component_count"], 2);
 }
 
 INSTANTIATE_TEST_SUITE_P(Threads, ThreadSweep, ::testing::Values(1, 2, 8),
@@ -112,6 +120,50 @@ TEST(SegmentationGraph, BatchModelsMatchSingleModelRuns) {
         }
         EXPECT_EQ(fa, fb);
     }
+}
+
+// A mesh of several components: each is segmented as if it were a mesh of its own, and the
+// report and folder hold them together.
+TEST(SegmentationGraph, ComponentsAreSegmentedOneByOne) {
+    const TempDir dir;
+    SegmentationGraphOptions options;
+    options.keep_results = true;
+    const std::string path = corpus("blobby_3cc.off");
+    const std::vector<ModelRun> runs = SegmentationGraph(options).run(engine::make_tasks({path}, dir.path()));
+    ASSERT_TRUE(runs[0].outcome.status.ok()) << runs[0].outcome.status.message;
+    const nlohmann::json& report = runs[0].report;
+    const std::shared_ptr<const MeshView> mesh = engine::load_mesh(path).mesh;
+    const kernels::Topology topology = kernels::compute_topology(*mesh);
+    ASSERT_EQ(topology.components, 3);
+    ASSERT_EQ(report["component_count"], 3);
+    ASSERT_EQ(runs[0].components->size(), 3u);
+    const std::vector<MeshView> parts = kernels::component_meshes(*mesh, topology);
+    std::int64_t zeros = 0, patches = 0, faces = 0;
+    for (std::size_t c = 0; c < parts.size(); ++c) {
+        SCOPED_TRACE(c);
+        nlohmann::json alone = engine::segmentation_report(engine::segment(parts[c]));
+        nlohmann::json part = report["components"][c];
+        alone.erase("timings_ms");
+        part.erase("timings_ms");
+        EXPECT_EQ(part, alone);
+        zeros += alone["zero_count"].get<std::int64_t>();
+        patches += alone["patch_count"].get<std::int64_t>();
+        faces += alone["faces"].get<std::int64_t>();
+    }
+    EXPECT_EQ(report["zero_count"], zeros);
+    EXPECT_EQ(report["patch_count"], patches);
+    EXPECT_EQ(report["faces"], faces);
+    EXPECT_EQ(report["patches"].size(), static_cast<std::size_t>(patches));
+    EXPECT_EQ(report["patches"].back()["component"], 2);
+    EXPECT_EQ(runs[0].outcome.patches, patches);
+    // The folder: one mesh with every component's patches, their complexes side by side.
+    const std::string ply = slurp(runs[0].outcome.task.out_dir / "segments.ply");
+    EXPECT_NE(ply.find("comment patches " + std::to_string(patches) + "\n"), std::string::npos);
+    const nlohmann::json complex = nlohmann::json::parse(slurp(runs[0].outcome.task.out_dir / "complex.json"));
+    EXPECT_EQ(complex["faces"].size(), static_cast<std::size_t>(patches));
+    EXPECT_EQ(complex["faces"].back()["patch"], patches - 1);
+    for (const auto& edge : complex["edges"])
+        for (const auto& patch : edge["patches"]) EXPECT_LT(patch.get<std::int64_t>(), patches);
 }
 
 TEST(SegmentationGraph, TimeLimitFailsTheModelNotTheBatch) {

@@ -169,6 +169,25 @@ TEST(Topology, ComponentsAreOrderedBySmallestFace) {
     EXPECT_EQ(t.euler_characteristic, 2);  // 2 + 0
 }
 
+// Each component as a mesh of its own: the interleaved union's parts are the sphere and the
+// torus again, with their faces and vertices in order and their twins.
+TEST(Topology, ComponentMeshesAreThePartsAgain) {
+    const MeshView torus = shapes::torus(3.0, 1.0, 6, 4);
+    const MeshView sphere = tetrahedron();
+    const MeshView both = disjoint_union(sphere, torus, /*interleave=*/true);
+    const std::vector<MeshView> parts = component_meshes(both, compute_topology(both));
+    ASSERT_EQ(parts.size(), 2u);
+    for (const auto& [part, original] : {std::pair{&parts[0], &sphere}, {&parts[1], &torus}}) {
+        EXPECT_EQ(part->V, original->V);
+        EXPECT_EQ(part->F, original->F);
+        EXPECT_EQ(part->twin, original->twin);
+        const Topology t = compute_topology(*part);
+        EXPECT_EQ(t.components, 1);
+        EXPECT_EQ(t.genus, compute_topology(*original).genus);
+    }
+    EXPECT_THROW(component_meshes(both, compute_topology(sphere)), InvalidInput);
+}
+
 TEST(Topology, PerComponentBoundaryAndGenusAddUp) {
     // Disk, cylinder and genus-2 surface, in this face order.
     const MeshView disk_and_tube =

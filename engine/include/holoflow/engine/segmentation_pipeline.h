@@ -4,6 +4,7 @@
 #include <complex>
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -116,5 +117,26 @@ void write_segmentation_folder(const std::filesystem::path& folder, const Segmen
 
 //! The arrays the picture writers draw.
 SegmentationPicture segmentation_picture(const SegmentationResult& result);
+
+// A mesh of several components is segmented per component (graphs/); its folder holds the
+// same files, the components side by side. With one component each of these is the single
+// result's.
+
+//! segmentation.json of the components together: `component_count`, `components` (each one's
+//! report), and over all of them the sums of the counts (genus, zero_count, patch_count, ...,
+//! and per key of patch_types, zero_fans, timings_ms, ...), the max of rectangle_error_max,
+//! the face-weighted mean and the max of conformal_distortion, and the lists (patches, zeros,
+//! tips) joined, each entry with its `component`. torus_modulus is per component only.
+nlohmann::json segmentation_report(std::span<const SegmentationResult> components);
+
+//! complex.json of the components together: their complexes joined, ids offset.
+nlohmann::json complex_report(std::span<const SegmentationResult> components);
+
+//! The pictures of the components joined: vertices, faces, patch ids and polylines offset.
+SegmentationPicture segmentation_picture(std::span<const SegmentationResult> components);
+
+//! As above, for the components together.
+void write_segmentation_folder(const std::filesystem::path& folder, std::span<const SegmentationResult> components,
+                               const nlohmann::json& report);
 
 }  // namespace holoflow::engine

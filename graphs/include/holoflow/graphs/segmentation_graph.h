@@ -34,21 +34,24 @@ struct SegmentationGraphOptions {
 struct ModelRun {
     engine::ModelOutcome outcome;
     nlohmann::json report;  //!< segmentation.json of a successful model
-    std::shared_ptr<const engine::SegmentationResult> result;  //!< with keep_results
+    //! With keep_results: the model's segmentation, one result per component of its mesh.
+    std::shared_ptr<const std::vector<engine::SegmentationResult>> components;
 };
 
 //! Called once per finished model; may amend its outcome (e.g. a failure to record it).
 using ModelCallback = std::function<void(ModelRun&)>;
 
 //! \brief The segmentation as a oneTBB flow graph, one node per stage:
-//! read -> validate -> prepare (topology, tip slicing, double cover) -> laplacian ->
+//! read -> validate -> prepare (topology, components, tip slicing, double cover) -> laplacian ->
 //! homology_and_factorise (cut graph and closed forms beside the factorisation) -> split_solves
 //! -> solve (the 2g harmonic solves in blocks, concurrently) -> end_solves -> hodge_star ->
 //! integrate -> zeros -> fans -> trace -> cut (and patches) -> write -> collect. A collection
 //! streams through it: model ids wait in a queue and a limiter admits max_in_flight of them at
 //! once, every message carries its model's id, and the collector stores results by id, so order
 //! of arrival decides nothing. A failing model (bad file, solver failure, time limit) becomes a
-//! failed ModelRun; the others go on.
+//! failed ModelRun; the others go on. A mesh of several components is segmented per
+//! component: each stage runs on every component in turn, the solve blocks of all of them run
+//! concurrently, and the folder and report hold them together (engine::segmentation_report).
 //! run_serial is the twin: the same stage functions in plain loops, same bits.
 class SegmentationGraph {
   public:

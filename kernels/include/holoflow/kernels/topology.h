@@ -28,4 +28,8 @@ struct Topology {
 //! Counts, components, ordered boundary loops, Euler characteristic and genus. Linear time.
 Topology compute_topology(const MeshView& mesh);
 
+//! Each component of `mesh` as a mesh of its own, in topology's order: its faces in their
+//! order, its vertices in ascending order of their ids, twins kept. \pre topology of `mesh`.
+std::vector<MeshView> component_meshes(const MeshView& mesh, const Topology& topology);
+
 }  // namespace holoflow::kernels
