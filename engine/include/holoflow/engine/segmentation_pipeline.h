@@ -98,7 +98,8 @@ void cut(SegmentationWork& work);
 
 //! \brief The holomorphic flow segmentation of a validated, connected mesh of any genus: the
 //! stages above in sequence (the flow graph in graphs/ runs the same ones as nodes).
-//! \throw InvalidInput (several components, genus-0 surface where no tip can be sliced),
+//! \throw InvalidInput (several components: the graphs/ SegmentationGraph segments those one
+//! by one; genus-0 surface where no tip can be sliced),
 //! SolverFailure, ResourceLimit.
 SegmentationResult segment(const MeshView& input, const SegmentOptions& options = {},
                            FactorizationCache* cache = nullptr);
