@@ -63,8 +63,9 @@ struct SegmentationResult {
 
     //! A closed genus-1 input: the segmentation form's periods reduced (kernels::reduce_lattice),
     //! {0, 0} otherwise. regular.tau is then the form made a rectangle's (kernels::rectangle_form),
-    //! and the torus opens along the vertical and horizontal line through vertex 0, one period
-    //! each, into one rectangle; along its homology cut where those lines do not close.
+    //! and the torus opens along the vertical and horizontal line through a point inside face 0
+    //! (regular.mesh gets it as its last vertex), one period each, into one rectangle; along
+    //! its homology cut where those lines do not close or make no single disk.
     std::array<std::complex<double>, 2> torus_periods{};
 
     //! A closed genus-1 input: no zeros; it opens into one parallelogram.
