@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <utility>
 
 #include "holoflow/engine/output.h"
 #include "holoflow/kernels/conformal_map.h"
@@ -38,32 +39,37 @@ Eigen::VectorXcd restrict_to_first_copy(const MeshView& open, const MeshView& co
     return out;
 }
 
-// A torus's periods of the regularised form along its homology generators (the regularised mesh
-// keeps the surface's faces and corners: no fans).
-std::array<Complex, 2> generator_periods(const SegmentationResult& r) {
+// The surface halfedge under halfedge h of a torus's regularised mesh: the one with the same two
+// vertices in h's surface face (the mesh keeps the surface's vertices and faces, no fans, but the
+// torus's corner point may split a face); kNoHalfedge for the corner's spokes.
+Index surface_halfedge(const SegmentationResult& r, Index h) {
     const MeshView& surface = *r.conformal.surface;
     const MeshView& m = r.regular.mesh;
-    std::vector<Index> regular_halfedge(surface.n_halfedges(), kNoHalfedge);
-    for (Index h = 0; h < m.n_halfedges(); ++h) regular_halfedge[3 * r.regular.original_face[MeshView::face(h)] + h % 3] = h;
+    const Index face = r.regular.original_face[MeshView::face(h)];
+    for (Index s = 3 * face; s < 3 * face + 3; ++s)
+        if (surface.tail(s) == m.tail(h) && surface.head(s) == m.head(h)) return s;
+    return kNoHalfedge;
+}
+
+// A torus's periods of the regularised form along its homology generators.
+std::array<Complex, 2> generator_periods(const SegmentationResult& r) {
+    const MeshView& m = r.regular.mesh;
+    std::vector<Index> regular_halfedge(r.conformal.surface->n_halfedges(), kNoHalfedge);
+    for (Index h = 0; h < m.n_halfedges(); ++h)
+        if (const Index s = surface_halfedge(r, h); s != kNoHalfedge) regular_halfedge[s] = h;
     std::array<Complex, 2> period{};
     for (int i = 0; i < 2; ++i)
         for (Index h : r.conformal.homology.loops[i]) period[i] += kernels::form_along(m, r.regular.tau, regular_halfedge[h]);
     return period;
 }
 
-// A torus's regularised mesh edges on its homology cut graph: kHomologyCut, else kNoBorder. The
-// mesh keeps the surface's vertices and faces (no fans), but for the torus's corner point a
-// face may be split: each halfedge is found among its surface face's by its two vertices.
+// A torus's regularised mesh edges on its homology cut graph: kHomologyCut, else kNoBorder.
 std::vector<Index> homology_cut_labels(const SegmentationResult& r) {
-    const MeshView& surface = *r.conformal.surface;
     const MeshView& m = r.regular.mesh;
     std::vector<Index> label(m.n_edges(), kernels::kNoBorder);
     for (Index e = 0; e < m.n_edges(); ++e) {
-        const Index h = m.edge_halfedge[e], face = r.regular.original_face[MeshView::face(h)];
-        for (Index surface_h = 3 * face; surface_h < 3 * face + 3; ++surface_h)
-            if (surface.tail(surface_h) == m.tail(h) && surface.head(surface_h) == m.head(h) &&
-                r.conformal.homology.cut_edge[surface.halfedge_edge[surface_h]])
-                label[e] = kHomologyCut;
+        const Index s = surface_halfedge(r, m.edge_halfedge[e]);
+        if (s != kNoHalfedge && r.conformal.homology.cut_edge[r.conformal.surface->halfedge_edge[s]]) label[e] = kHomologyCut;
     }
     return label;
 }
@@ -279,13 +285,13 @@ void fans(SegmentationWork& work) {
     clock.lap("zero_fans");
 }
 
-// The regularised form with face `f` split at the point of barycentric weights `w` (a new
+// A mesh and closed form with face `f` split at the point of barycentric weights `w` (a new
 // vertex, the last): the form's image of the point is the same weighting of its corners'.
-kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg, Index f, const std::array<double, 3>& w) {
-    const MeshView& m = reg.mesh;
+std::pair<MeshView, Eigen::VectorXcd> with_point_in_face(const MeshView& m, const Eigen::VectorXcd& tau, Index f,
+                                                        const std::array<double, 3>& w) {
     const Index q = m.n_vertices(), nf = m.n_faces();
     std::vector<Complex> along(m.n_halfedges());
-    for (Index h = 0; h < m.n_halfedges(); ++h) along[h] = kernels::form_along(m, reg.tau, h);
+    for (Index h = 0; h < m.n_halfedges(); ++h) along[h] = kernels::form_along(m, tau, h);
     PointMatrix V(q + 1, 3);
     V.topRows(q) = m.V;
     V.row(q) = w[0] * m.V.row(m.F(f, 0)) + w[1] * m.V.row(m.F(f, 1)) + w[2] * m.V.row(m.F(f, 2));
@@ -307,8 +313,7 @@ kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg,
     pair_up(3 * f + 1, b_side + 2);      // b -> q, q -> b
     pair_up(b_side + 1, c_side + 2);     // c -> q, q -> c
     pair_up(c_side + 1, 3 * f + 2);      // a -> q, q -> a
-    kernels::RegularisedForm out;
-    out.mesh = make_mesh_view(std::move(V), std::move(F), std::move(twin));
+    MeshView split = make_mesh_view(std::move(V), std::move(F), std::move(twin));
     // Each new face lies in an old one (the pieces of f in f); positions in that face's chart.
     const auto position = [&](Index old_face, Index v) {
         Complex point = 0;
@@ -319,29 +324,18 @@ kernels::RegularisedForm with_point_in_face(const kernels::RegularisedForm& reg,
         }
         return point;  // v = q, inside f
     };
-    out.tau.resize(out.mesh.n_edges());
-    for (Index e = 0; e < out.mesh.n_edges(); ++e) {
-        const Index h = out.mesh.edge_halfedge[e], g = MeshView::face(h);
+    Eigen::VectorXcd split_tau(split.n_edges());
+    for (Index e = 0; e < split.n_edges(); ++e) {
+        const Index h = split.edge_halfedge[e], g = MeshView::face(h);
         const Index old_face = g < nf && g != f ? g : f;
-        out.tau(e) = position(old_face, out.mesh.head(h)) - position(old_face, out.mesh.tail(h));
+        split_tau(e) = position(old_face, split.head(h)) - position(old_face, split.tail(h));
     }
-    out.original_vertex = reg.original_vertex;
-    out.original_vertex.push_back(-1);
-    out.original_face = reg.original_face;
-    out.original_face.push_back(reg.original_face[f]);
-    out.original_face.push_back(reg.original_face[f]);
-    out.region_vertex = reg.region_vertex;
-    out.removed_vertices = reg.removed_vertices;
-    out.failed_regions = reg.failed_regions;
-    out.merged_regions = reg.merged_regions;
-    out.flipped_faces = reg.flipped_faces;
-    out.edge_flips = reg.edge_flips;
-    return out;
+    return {std::move(split), std::move(split_tau)};
 }
 
 // The torus's rectangle sides: the vertical and the horizontal line through `corner`, each
 // closing after one period; none unless both close there (rounding, folds of the form).
-std::vector<Trajectory> torus_sides(const kernels::RegularisedForm& reg, Index corner,
+std::vector<Trajectory> torus_sides(const MeshView& mesh, const Eigen::VectorXcd& tau, Index corner,
                                     const std::array<Complex, 2>& periods) {
     const TrajectoryFamily both[] = {TrajectoryFamily::Vertical, TrajectoryFamily::Horizontal};
     // A side that closes is one period long: |A| Im(B / A) vertical, |A| horizontal, in units of
@@ -350,7 +344,7 @@ std::vector<Trajectory> torus_sides(const kernels::RegularisedForm& reg, Index c
     kernels::TraceOptions options;
     options.length_cap = 1.5 * std::sqrt((periods[1] / periods[0]).imag()) + 1;
     const std::vector<Trajectory> traced =
-        kernels::trace_trajectories(reg.mesh, reg.tau, std::span(&corner, 1), both, options);
+        kernels::trace_trajectories(mesh, tau, std::span(&corner, 1), both, options);
     // Each line is traced from both ends of its one curve; the first copy is kept.
     std::vector<Trajectory> sides;
     for (TrajectoryFamily family : both) {
@@ -370,10 +364,16 @@ void trace(SegmentationWork& work) {
         // The corner is a point inside face 0, away from the mesh's vertex rows: on a symmetric
         // mesh the lines through a vertex run through other vertices and the cut would leave
         // slivers. (Where the form folds, the lines may not make one disk: see cut.)
-        kernels::RegularisedForm split = with_point_in_face(r.regular, 0, {0.30711, 0.32735, 0.36554});
-        const Index corner = split.mesh.n_vertices() - 1;
-        r.trajectories = torus_sides(split, corner, r.torus_periods);
-        if (!r.trajectories.empty()) r.regular = std::move(split);
+        auto [mesh, tau] = with_point_in_face(r.regular.mesh, r.regular.tau, 0, {0.30711, 0.32735, 0.36554});
+        const Index corner = mesh.n_vertices() - 1;
+        r.trajectories = torus_sides(mesh, tau, corner, r.torus_periods);
+        if (!r.trajectories.empty()) {  // the regularised mesh gets the corner and face 0's pieces
+            kernels::RegularisedForm& reg = r.regular;
+            reg.mesh = std::move(mesh);
+            reg.tau = std::move(tau);
+            reg.original_vertex.push_back(-1);
+            reg.original_face.insert(reg.original_face.end(), 2, reg.original_face[0]);
+        }
         clock.lap("tracing");
         return;
     }
@@ -623,13 +623,25 @@ SegmentationPicture segmentation_picture(const SegmentationResult& r) {
     return pic;
 }
 
+StageTimes summed_times(std::span<const SegmentationResult> components) {
+    HOLOFLOW_REQUIRE(!components.empty(), "no component to time");
+    StageTimes sum = components.front().timings_ms;
+    for (const SegmentationResult& r : components.subspan(1))
+        for (const auto& [stage, ms] : r.timings_ms) {
+            const auto it = std::find_if(sum.begin(), sum.end(), [&](const auto& entry) { return entry.first == stage; });
+            if (it == sum.end()) sum.emplace_back(stage, ms);
+            else it->second += ms;
+        }
+    return sum;
+}
+
 nlohmann::json segmentation_report(std::span<const SegmentationResult> components) {
     HOLOFLOW_REQUIRE(!components.empty(), "no component to report");
     if (components.size() == 1) return segmentation_report(components[0]);
     nlohmann::json parts = nlohmann::json::array();
     for (const SegmentationResult& r : components) parts.push_back(segmentation_report(r));
     // Every key of the first report, merged over all: numbers add up, objects of numbers add up
-    // per key, lists join (entries tagged with their component); the rest as below.
+    // per key, lists join (entries tagged with their component); the rest below.
     nlohmann::json total = parts[0];
     const auto add = [](nlohmann::json& into, const nlohmann::json& value) {
         if (into.is_number_integer() && value.is_number_integer()) into = into.get<std::int64_t>() + value.get<std::int64_t>();
@@ -647,7 +659,7 @@ nlohmann::json segmentation_report(std::span<const SegmentationResult> component
             value = joined;
         } else if (value.is_number()) {
             for (std::size_t c = 1; c < parts.size(); ++c) add(value, parts[c][key]);
-        } else if (value.is_object() && key != "conformal_distortion") {
+        } else if (value.is_object() && key != "conformal_distortion" && key != "timings_ms") {
             for (std::size_t c = 1; c < parts.size(); ++c)
                 for (const auto& [name, number] : parts[c][key].items()) {
                     if (!value.contains(name)) value[name] = number;
@@ -667,6 +679,7 @@ nlohmann::json segmentation_report(std::span<const SegmentationResult> component
     total["rectangle_error_max"] = rectangle_error;
     total["conformal_distortion"] = {{"mean", faces > 0 ? distortion_sum / faces : 0.0}, {"max", distortion_max}};
     total["double_covered"] = double_covered;
+    total["timings_ms"] = timings_report(summed_times(components));
     total["torus_modulus"] = nullptr;
     total["component_count"] = parts.size();
     total["components"] = std::move(parts);

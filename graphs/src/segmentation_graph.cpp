@@ -41,39 +41,29 @@ struct ModelState {
     }
 };
 
-// Runs `stage` on every part; on a mesh of several components an error names its component
+// Runs `stage` for component p of n; with several components an error names its component
 // (same error type, so the same kind and exit status).
 template <class Stage>
-void for_each_part(std::vector<engine::SegmentationWork>& parts, const Stage& stage) {
-    for (std::size_t p = 0; p < parts.size(); ++p) {
-        const auto named = [&](const std::exception& e) {
-            return "component " + std::to_string(p) + " of " + std::to_string(parts.size()) + ": " + e.what();
-        };
-        try {
-            stage(parts[p]);
-        } catch (const InvalidInput& e) {
-            if (parts.size() == 1) throw;
-            throw InvalidInput(named(e));
-        } catch (const SolverFailure& e) {
-            if (parts.size() == 1) throw;
-            throw SolverFailure(named(e));
-        } catch (const engine::ResourceLimit& e) {
-            if (parts.size() == 1) throw;
-            throw engine::ResourceLimit(named(e));
-        }
+void in_component(std::size_t p, std::size_t n, const Stage& stage) {
+    if (n == 1) return stage();
+    const auto named = [&](const std::exception& e) {
+        return "component " + std::to_string(p) + " of " + std::to_string(n) + ": " + e.what();
+    };
+    try {
+        stage();
+    } catch (const InvalidInput& e) {
+        throw InvalidInput(named(e));
+    } catch (const SolverFailure& e) {
+        throw SolverFailure(named(e));
+    } catch (const engine::ResourceLimit& e) {
+        throw engine::ResourceLimit(named(e));
     }
 }
 
-// The stage times of the parts added up per stage, in the first part's order.
-engine::StageTimes summed_times(const std::vector<engine::SegmentationResult>& parts) {
-    engine::StageTimes sum = parts.front().timings_ms;
-    for (std::size_t p = 1; p < parts.size(); ++p)
-        for (const auto& [stage, ms] : parts[p].timings_ms) {
-            const auto it = std::find_if(sum.begin(), sum.end(), [&](const auto& entry) { return entry.first == stage; });
-            if (it == sum.end()) sum.emplace_back(stage, ms);
-            else it->second += ms;
-        }
-    return sum;
+// Runs `stage` on every part, errors named as in_component does.
+template <class Stage>
+void for_each_part(std::vector<engine::SegmentationWork>& parts, const Stage& stage) {
+    for (std::size_t p = 0; p < parts.size(); ++p) in_component(p, parts.size(), [&] { stage(parts[p]); });
 }
 
 using ModelItem = Item<ModelState>;
@@ -107,20 +97,20 @@ struct Stages {
     }
     void prepare(ModelState& s) const {
         const kernels::Topology topology = kernels::compute_topology(*s.mesh);
-        if (topology.components <= 1) {
-            s.parts.push_back(segment_stage::prepare(s.mesh, options.segment));
-        } else {
+        std::vector<std::shared_ptr<const MeshView>> meshes{s.mesh};
+        if (topology.components > 1) {
             HOLOFLOW_REQUIRE(options.segment.tips.empty(), "tips are vertex ids of a connected mesh; this one has " +
                                                                std::to_string(topology.components) + " components");
-            std::vector<MeshView> components = kernels::component_meshes(*s.mesh, topology);
-            s.parts.resize(components.size());
-            for (std::size_t p = 0; p < components.size(); ++p) s.parts[p].input = std::make_shared<const MeshView>(std::move(components[p]));
-            for_each_part(s.parts, [&](engine::SegmentationWork& part) {
-                part = segment_stage::prepare(std::move(part.input), options.segment);
-            });
+            meshes.clear();
+            for (MeshView& component : kernels::component_meshes(*s.mesh, topology))
+                meshes.push_back(std::make_shared<const MeshView>(std::move(component)));
         }
         s.run.outcome.genus = 0;
-        for (const engine::SegmentationWork& part : s.parts) s.run.outcome.genus += part.result.input_genus;
+        for (std::size_t p = 0; p < meshes.size(); ++p)
+            in_component(p, meshes.size(), [&] {
+                s.parts.push_back(segment_stage::prepare(meshes[p], options.segment));
+                s.run.outcome.genus += s.parts.back().result.input_genus;
+            });
     }
     void laplacian(ModelState& s) const {
         for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::laplacian(part.conformal); });
@@ -194,15 +184,12 @@ struct Stages {
         for (engine::SegmentationWork& part : s.parts) results.push_back(std::move(part.result));
         s.parts.clear();
         engine::ModelOutcome& o = s.run.outcome;
-        o.working_genus = o.zeros = o.patches = 0;
-        for (const engine::SegmentationResult& r : results) {
-            o.working_genus += r.conformal.basis.genus;
-            o.zeros += r.zeros.total_order;
-            o.patches += static_cast<std::int64_t>(r.patches.info.size());
-        }
-        const engine::StageTimes times = summed_times(results);
-        o.timings_ms.insert(o.timings_ms.end(), times.begin(), times.end());
         s.run.report = engine::segmentation_report(results);
+        o.working_genus = s.run.report["working_genus"];
+        o.zeros = s.run.report["zero_count"];
+        o.patches = s.run.report["patch_count"];
+        const engine::StageTimes times = engine::summed_times(results);
+        o.timings_ms.insert(o.timings_ms.end(), times.begin(), times.end());
         s.run.report["file"] = s.task().path;
         if (!s.task().out_dir.empty()) engine::write_segmentation_folder(s.task().out_dir, results, s.run.report);
         if (options.keep_results)

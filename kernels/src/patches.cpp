@@ -264,7 +264,7 @@ Index embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Uni
                 }
                 if (cost < best) best = cost, at = trial;
             }
-        Eigen::MatrixXd x(n, 2);
+        Eigen::MatrixXd x = Eigen::MatrixXd::Zero(n, 2);
         for (Index i = 0; i < 3; ++i) x.row(points.of(loop[i])) << at[i].real(), at[i].imag();
         return lay_out_inside(x);
     }

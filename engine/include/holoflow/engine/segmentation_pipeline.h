@@ -131,6 +131,10 @@ SegmentationPicture segmentation_picture(const SegmentationResult& result);
 //! tips) joined, each entry with its `component`. torus_modulus is per component only.
 nlohmann::json segmentation_report(std::span<const SegmentationResult> components);
 
+//! The components' stage times added up per stage, in the first one's order (a stage only later
+//! ones have comes after).
+StageTimes summed_times(std::span<const SegmentationResult> components);
+
 //! complex.json of the components together: their complexes joined, ids offset.
 nlohmann::json complex_report(std::span<const SegmentationResult> components);
 
