@@ -132,6 +132,7 @@ struct SegmentSettings {
     std::size_t max_memory_mb = 0;
     int max_tips = 8;
     double hole_size = 0.02;
+    int fan_refinements = 3;
 
     void add_to(CLI::App& command) {
         command.add_option("--mode", mode, "vertical: the paper's trajectories; layout: both families, "
@@ -146,6 +147,10 @@ struct SegmentSettings {
             ->check(CLI::Range(2, 64));
         command.add_option("--hole-size", hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
             ->check(CLI::Range(0.0, 0.5));
+        command.add_option("--fan-refinements", fan_refinements,
+                           "where zero fans fail: rounds of refinement around them, each a new conformal "
+                           "solve (0: none)")
+            ->check(CLI::Range(0, 8));
     }
     graphs::SegmentationGraphOptions graph_options() const {
         graphs::SegmentationGraphOptions o;
@@ -156,13 +161,15 @@ struct SegmentSettings {
         o.segment.mode = mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
         o.segment.max_tips = max_tips;
         o.segment.hole_size = hole_size;
+        o.segment.fan_refinement_rounds = fan_refinements;
         return o;
     }
     //! What a finished model's results depend on: a re-run with other values recomputes it.
     nlohmann::json fingerprint() const {
         return {{"mode", mode}, {"laplacian", laplacian}, {"component", load.components},
                 {"pinched_vertices", load.pinched_vertices},
-                {"max_tips", max_tips}, {"hole_size", hole_size}, {"version", HOLOFLOW_VERSION}};
+                {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
+                {"version", HOLOFLOW_VERSION}};
     }
 };
 

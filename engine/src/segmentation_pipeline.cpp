@@ -24,9 +24,11 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 // Where a cylinder's border is no straight loop a transversal may only cut a disk off it; the
 // cylinder left is opened in the next round.
 constexpr int kCylinderRounds = 4;
-// Where zero fans fail, the midpoint subdivision is tried while it stays this small (one step:
-// a second one cost oblong-shuffled 25x its time and still left a region failed).
-constexpr Index kMaxFanRefinedFaces = 20000;
+// Where zero fans fail, the surface is refined around them (this many rings) and the midpoint
+// subdivision is tried while it stays this small (a second step cost oblong-shuffled 25x its
+// time and still left a region failed).
+constexpr int kFanZoneRings = 4;
+constexpr Index kMaxMidpointRefinedFaces = 20000;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -204,16 +206,55 @@ void regularise(SegmentationWork& work) {
                              : kernels::regularise_zeros(traced, tau, work.regions);
 }
 
-// The conformal stage, the zeros and the fans again on the midpoint subdivision of the traced
-// surface (same shape, same vertex ids); nothing where that fails.
-std::optional<SegmentationWork> on_midpoint_subdivision(const SegmentationWork& work) {
+// The vertices within kFanZoneRings rings of the regions whose fans failed; none (the whole
+// surface) where more than a quarter of the zeros' failed: the mesh is too coarse throughout
+// (cheese: 154 of 264; rounds of zones cost it 2.5x a whole refinement and left more failed).
+std::vector<char> failed_fan_zone(const MeshView& surface, std::span<const kernels::ZeroRegion> regions,
+                                  const kernels::RegularisedForm& regular) {
+    Index zeros = 0, failed = 0;
+    for (std::size_t i = 0; i < regions.size(); ++i)
+        if (regions[i].order > 0) ++zeros, failed += regular.region_vertex[i] < 0;
+    if (4 * failed > zeros) return {};
+    std::vector<char> zone(surface.n_vertices(), 0);
+    for (std::size_t i = 0; i < regions.size(); ++i) {
+        if (regular.region_vertex[i] >= 0) continue;
+        const kernels::ZeroRegion& region = regions[i];
+        for (Index v : region.vertices) zone[v] = 1;
+        if (region.vertex >= 0) zone[region.vertex] = 1;
+        if (region.face >= 0)
+            for (int k = 0; k < 3; ++k) zone[surface.F(region.face, k)] = 1;
+    }
+    for (int ring = 0; ring < kFanZoneRings; ++ring) {
+        std::vector<char> grown = zone;
+        for (Index h = 0; h < surface.n_halfedges(); ++h)
+            if (zone[surface.tail(h)]) grown[surface.head(h)] = 1;
+        zone.swap(grown);
+    }
+    return zone;
+}
+
+// The traced surface with the long edges in `zone` bisected (down to the median edge length)
+// and its flat parts flipped Delaunay: same shape, same vertex ids, room between zeros that
+// were a triangle or two apart, and fewer of the slivers on which the form's image folds.
+MeshView bisected_surface(const MeshView& surface, std::span<const char> zone) {
+    std::vector<double> length(surface.n_edges());
+    for (Index e = 0; e < surface.n_edges(); ++e)
+        length[e] = (surface.V.row(surface.E(e, 0)) - surface.V.row(surface.E(e, 1))).norm();
+    auto median = length.begin() + static_cast<std::ptrdiff_t>(length.size() / 2);
+    std::nth_element(length.begin(), median, length.end());
+    return kernels::flip_flat_edges_to_delaunay(kernels::bisect_long_edges(surface, *median, zone));
+}
+
+// The conformal stage, the zeros and the fans again on a refinement of the traced surface (same
+// shape, same vertex ids); nothing where that fails.
+std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options) {
     SegmentationWork refined;
-    refined.options = work.options;
+    refined.options = options;
     try {
-        const auto traced = std::make_shared<const MeshView>(kernels::subdivide_midpoint(*work.result.traced_input));
+        auto traced = std::make_shared<const MeshView>(std::move(surface));
         const kernels::Topology topology = kernels::compute_topology(*traced);
-        refined.result.traced_input = traced;
-        refined.conformal = conformal_stage::prepare(traced, work.options.conformal, &topology);
+        refined.result.traced_input = std::move(traced);
+        refined.conformal = conformal_stage::prepare(refined.result.traced_input, options.conformal, &topology);
         conformal_stage::run_after_prepare(refined.conformal, nullptr);  // a new pattern: no cache
         locate_zeros(refined);
         regularise(refined);
@@ -248,20 +289,27 @@ void fans(SegmentationWork& work) {
         return;
     }
     // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
-    // too few: a patch around it winds twice, or the form's uv folds there. On a small mesh the
-    // zeros get room on its midpoint subdivision, kept if fewer regions fail there. The time
-    // counts as the fans'.
-    if (r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxFanRefinedFaces) {
-        std::optional<SegmentationWork> refined = on_midpoint_subdivision(work);
-        if (refined && refined->result.regular.failed_regions < r.regular.failed_regions) {
-            SegmentationResult& f = refined->result;
-            r.traced_input = std::move(f.traced_input);
-            r.conformal = std::move(f.conformal);
-            r.zeros = std::move(f.zeros);
-            work.regions = std::move(refined->regions);
-            r.regular = std::move(f.regular);
-            r.fan_refinements = 1;
-        }
+    // too few: a patch around it winds twice, or the form's uv folds there. The zeros get room
+    // on a refined surface: the midpoint subdivision while small (a tetrahedron's zeros need
+    // every face split), then rounds of bisection around the fans still failed; each is kept
+    // while fewer regions fail on it. The time counts as the fans'.
+    const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined) {
+        if (!refined || refined->result.regular.failed_regions >= r.regular.failed_regions) return false;
+        SegmentationResult& f = refined->result;
+        r.traced_input = std::move(f.traced_input);
+        r.conformal = std::move(f.conformal);
+        r.zeros = std::move(f.zeros);
+        work.regions = std::move(refined->regions);
+        r.regular = std::move(f.regular);
+        ++r.fan_refinements;
+        return true;
+    };
+    const int rounds = work.options.fan_refinement_rounds;
+    if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
+        keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), work.options));
+    for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
+        const std::vector<char> zone = failed_fan_zone(*r.traced_input, work.regions, r.regular);
+        if (!keep_if_fewer_fail(on_refined_surface(bisected_surface(*r.traced_input, zone), work.options))) break;
     }
     const MeshView& traced = *r.traced_input;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;

@@ -1,5 +1,17 @@
 #include "holoflow/kernels/subdivision.h"
 
+#include <array>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <queue>
+#include <tuple>
+#include <unordered_set>
+
+#include <Eigen/Geometry>
+
+#include "holoflow/kernels/errors.h"
+
 namespace holoflow::kernels {
 
 namespace {
@@ -60,6 +72,134 @@ MeshView subdivide_midpoint(const MeshView& mesh) {
     for (Index e = 0; e < n_e; ++e)
         V.row(n_v + e) = 0.5 * (mesh.V.row(mesh.E(e, 0)) + mesh.V.row(mesh.E(e, 1)));
     return split_faces(mesh, std::move(V));
+}
+
+MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone) {
+    HOLOFLOW_REQUIRE(max_length > 0, "bisection needs a positive edge length");
+    HOLOFLOW_REQUIRE(zone.empty() || static_cast<Index>(zone.size()) == mesh.n_vertices(),
+                     "bisection zone must have one flag per vertex");
+    std::vector<char> inside(zone.begin(), zone.end());
+    if (zone.empty()) inside.assign(static_cast<std::size_t>(mesh.n_vertices()), 1);
+    std::vector<Eigen::RowVector3d> V(static_cast<std::size_t>(mesh.n_vertices()));
+    for (Index v = 0; v < mesh.n_vertices(); ++v) V[v] = mesh.V.row(v);
+    std::vector<std::array<Index, 3>> F(static_cast<std::size_t>(mesh.n_faces()));
+    for (Index f = 0; f < mesh.n_faces(); ++f) F[f] = {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)};
+    std::vector<Index> twin = mesh.twin;
+    const auto tail = [&](Index h) { return F[h / 3][h % 3]; };
+    const auto head = [&](Index h) { return F[h / 3][(h % 3 + 1) % 3]; };
+
+    // Longest first, ties by the vertex pair: an entry is stale once its halfedge slot holds
+    // another edge (faces are rewritten in place).
+    using Entry = std::tuple<double, Index, Index, Index>;  // length, low vertex, high vertex, halfedge
+    std::priority_queue<Entry> queue;
+    const auto push = [&](Index h) {
+        const Index a = tail(h), b = head(h);
+        const double length = (V[a] - V[b]).norm();
+        if (inside[a] && inside[b] && length > max_length) queue.emplace(length, std::min(a, b), std::max(a, b), h);
+    };
+    for (Index h = 0; h < mesh.n_halfedges(); ++h)
+        if (twin[h] == kNoHalfedge || h < twin[h]) push(h);
+    const auto link = [&](Index x, Index y) {
+        twin[x] = y;
+        if (y != kNoHalfedge) twin[y] = x;
+    };
+    // Face of halfedge h = (a, b, c) becomes (a, m, c) in place plus a new face (m, b, c);
+    // returns the new face's halfedge m -> b.
+    const auto split_side = [&](Index h, Index m) {
+        const Index f = h / 3, k = h % 3;
+        const Index b = head(h), c = F[f][(k + 2) % 3];
+        const Index bc = 3 * f + (k + 1) % 3, outer_bc = twin[bc];
+        const Index g = static_cast<Index>(F.size());
+        F.push_back({m, b, c});
+        twin.insert(twin.end(), 3, kNoHalfedge);
+        F[f][(k + 1) % 3] = m;
+        link(3 * g + 1, outer_bc);  // b -> c moves to the new face (queued again under its new slot)
+        link(bc, 3 * g + 2);        // m -> c and c -> m
+        push(3 * g + 1);
+        return 3 * g;
+    };
+    while (!queue.empty()) {
+        const auto [length, lo, hi, h] = queue.top();
+        queue.pop();
+        if (std::min(tail(h), head(h)) != lo || std::max(tail(h), head(h)) != hi) continue;
+        const Index a = tail(h), b = head(h), t = twin[h];
+        const Index m = static_cast<Index>(V.size());
+        V.push_back(0.5 * (V[a] + V[b]));
+        inside.push_back(1);
+        const Index mb = split_side(h, m);  // h becomes a -> m
+        if (t == kNoHalfedge) {
+            for (Index x : {h, mb, Index(3 * (h / 3) + (h % 3 + 1) % 3)}) push(x);
+            continue;
+        }
+        const Index ma = split_side(t, m);  // t becomes b -> m
+        link(h, ma);
+        link(t, mb);
+        for (Index x : {h, t, Index(3 * (h / 3) + (h % 3 + 1) % 3), Index(3 * (t / 3) + (t % 3 + 1) % 3)}) push(x);
+    }
+    PointMatrix points(static_cast<Index>(V.size()), 3);
+    for (std::size_t v = 0; v < V.size(); ++v) points.row(static_cast<Index>(v)) = V[v];
+    TriangleMatrix triangles(static_cast<Index>(F.size()), 3);
+    for (std::size_t f = 0; f < F.size(); ++f)
+        for (int k = 0; k < 3; ++k) triangles(static_cast<Index>(f), k) = F[f][k];
+    return make_mesh_view(std::move(points), std::move(triangles), std::move(twin));
+}
+
+MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
+    HOLOFLOW_REQUIRE(flatness >= 0, "flatness must not be negative");
+    TriangleMatrix F = mesh.F;
+    std::vector<Index> twin = mesh.twin;
+    const auto tail = [&](Index h) { return F(h / 3, h % 3); };
+    const auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
+    const auto point = [&](Index v) -> Eigen::Vector3d { return mesh.V.row(v).transpose(); };
+    const auto key = [&](Index u, Index w) {
+        return (static_cast<std::uint64_t>(std::min(u, w)) << 32) | static_cast<std::uint64_t>(std::max(u, w));
+    };
+    std::unordered_set<std::uint64_t> edges;
+    for (Index e = 0; e < mesh.n_edges(); ++e) edges.insert(key(mesh.E(e, 0), mesh.E(e, 1)));
+    // cot of the angle at p in triangle p q r, in 3D.
+    const auto cot = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& r) {
+        const Eigen::Vector3d u = q - p, w = r - p;
+        return u.dot(w) / u.cross(w).norm();
+    };
+    std::vector<Index> queue;
+    for (Index h = 0; h < mesh.n_halfedges(); ++h)
+        if (twin[h] != kNoHalfedge && h < twin[h]) queue.push_back(h);
+    // Flips only ever raise the smallest angle in the plane; a guard against rounding cycles.
+    const std::size_t limit = 16 * queue.size() + 64;
+    for (std::size_t q = 0; q < queue.size() && q < limit; ++q) {
+        const Index h = queue[q], t = twin[h];
+        if (t == kNoHalfedge || t / 3 == h / 3) continue;
+        // Quad a -> d -> b -> c: h = a->b in (a, b, c), t = b->a in (b, a, d).
+        const Index a = tail(h), b = head(h), c = head(MeshView::next(h)), d = head(MeshView::next(t));
+        if (c == d || edges.count(key(c, d))) continue;
+        const Eigen::Vector3d pa = point(a), pb = point(b), pc = point(c), pd = point(d);
+        const Eigen::Vector3d n = (pb - pa).cross(pc - pa);
+        if (!(n.norm() > 0)) continue;
+        const double side = std::max({(pb - pa).norm(), (pc - pa).norm(), (pd - pa).norm(), (pd - pb).norm()});
+        if (std::abs(n.normalized().dot(pd - pa)) > flatness * side) continue;
+        // Delaunay already (with a margin against near-cocircular quads flipping on noise).
+        const double cot_c = cot(pc, pa, pb), cot_d = cot(pd, pb, pa);
+        if (!std::isfinite(cot_c) || !std::isfinite(cot_d) || cot_c + cot_d >= -1e-12 * (std::abs(cot_c) + std::abs(cot_d)))
+            continue;
+        // Convex: both new triangles (c, a, d) and (d, b, c) turn the way the old ones did.
+        if (!((pa - pc).cross(pd - pc).dot(n) > 0) || !((pb - pd).cross(pc - pd).dot(n) > 0)) continue;
+        const Index f = h / 3, g = t / 3;
+        const Index ca = MeshView::prev(h), bc = MeshView::next(h), ad = MeshView::next(t), db = MeshView::prev(t);
+        const Index o_ca = twin[ca], o_bc = twin[bc], o_ad = twin[ad], o_db = twin[db];
+        F.row(f) << c, a, d;
+        F.row(g) << d, b, c;
+        const auto link = [&](Index x, Index y) {
+            twin[x] = y;
+            if (y != kNoHalfedge) twin[y] = x;
+        };
+        // New slots: 3f: c->a, 3f+1: a->d, 3f+2: d->c; 3g: d->b, 3g+1: b->c, 3g+2: c->d.
+        link(3 * f, o_ca), link(3 * f + 1, o_ad), link(3 * g, o_db), link(3 * g + 1, o_bc), link(3 * f + 2, 3 * g + 2);
+        edges.erase(key(a, b));
+        edges.insert(key(c, d));
+        for (Index x : {3 * f, 3 * f + 1, 3 * g, 3 * g + 1})
+            if (twin[x] != kNoHalfedge) queue.push_back(x);
+    }
+    return make_mesh_view(mesh.V, std::move(F), std::move(twin));
 }
 
 }  // namespace holoflow::kernels

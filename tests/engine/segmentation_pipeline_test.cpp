@@ -86,6 +86,15 @@ std::vector<double> nearest_distances(const std::vector<Eigen::RowVector3d>& fro
     return out;
 }
 
+double total_area(const MeshView& m) {
+    double area = 0;
+    for (Index f = 0; f < m.n_faces(); ++f) {
+        const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+        area += 0.5 * (b - a).cross(c - a).norm();
+    }
+    return area;
+}
+
 double mean_edge_length(const MeshView& m) {
     double sum = 0;
     for (Index e = 0; e < m.n_edges(); ++e) sum += (m.V.row(m.E(e, 0)) - m.V.row(m.E(e, 1))).norm();
@@ -148,6 +157,35 @@ TEST(Segmentation, FailedZeroFansAreRetriedOnTheRefinedMesh) {
     EXPECT_EQ(segment(*test::corpus_mesh("eight")).fan_refinements, 0);
 }
 
+// Larger meshes get room by longest-edge bisection around the failed fans (slivers cut
+// across, flat parts flipped Delaunay): turbine (18460 faces, a CAD mesh) had 3 failed fans
+// and 30 repaired patches, oblong 1 failed fan that its midpoint subdivision kept.
+TEST(Segmentation, FailedZeroFansGetRoomOnABisectedSurface) {
+    for (const char* name : {"turbine", "oblong"}) {
+        SCOPED_TRACE(name);
+        const std::shared_ptr<const MeshView> input = test::corpus_mesh(name);
+        const SegmentationResult r = segment(*input);
+        EXPECT_GE(r.fan_refinements, 1);
+        SegmentOptions unrefined;
+        unrefined.fan_refinement_rounds = 0;
+        EXPECT_GT(segment(*input, unrefined).regular.failed_regions, 0);
+        EXPECT_EQ(r.regular.failed_regions, 0);
+        EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+        EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+        EXPECT_EQ(flipped(r), 0);
+        EXPECT_LT(rectangle_error(r), kRectangleTol);
+        for (const kernels::PatchInfo& p : r.patches.info) EXPECT_FALSE(p.repaired());
+        // Same shape: the input's vertices first, where they were (oblong is sliced at tips
+        // first, so only the closed turbine keeps all of them), and the same area.
+        const MeshView& traced = *r.traced_input;
+        ASSERT_GT(traced.n_faces(), input->n_faces());
+        if (std::string(name) == "turbine") {
+            EXPECT_EQ(traced.V.topRows(input->n_vertices()), input->V);
+            EXPECT_NEAR(total_area(traced), total_area(*input), 1e-9 * total_area(*input));
+        }
+    }
+}
+
 // On CAD meshes (needle triangles; images tangled near zeros over regions the fans cannot
 // regularise) the form's uv can fold in a few patches; those are laid out again on their
 // rectangles (kernels::repair_folded_patches). Every patch ends up a valid disk.
@@ -175,12 +213,15 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
 // A genus-0 surface sliced at two tips is an annulus that no critical trajectory crosses (no
 // zeros): layout mode opens it into one exact rectangle. oblong (around a sliced tip) and
 // tetrahedron (a cylinder whose border is no straight loop) had a cylinder patch next to
-// others; every patch is now a disk. In vertical mode (the paper's) oblong stays one cylinder.
+// others; every patch is now a disk. Vertical mode (the paper's) opens nothing.
 TEST(Segmentation, LayoutOpensCylindersWithTransversals) {
-    // sphere and blob: annuli of two tips; turbine: a cylinder next to 98 other patches.
+    // sphere and blob: annuli of two tips; turbine with its failed fans left as they are (no
+    // refinement): a cylinder next to 98 other patches.
     for (const char* name : {"sphere", "blob", "turbine"}) {
         SCOPED_TRACE(name);
-        const SegmentationResult r = segment(*test::corpus_mesh(name));
+        SegmentOptions o;
+        o.fan_refinement_rounds = 0;
+        const SegmentationResult r = segment(*test::corpus_mesh(name), o);
         EXPECT_GT(r.transversals, 0);
         EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
         EXPECT_EQ(flipped(r), 0);
@@ -204,7 +245,9 @@ TEST(Segmentation, LayoutOpensCylindersWithTransversals) {
     vertical.mode = SegmentMode::Vertical;
     const SegmentationResult v = segment(*test::corpus_mesh("oblong"), vertical);
     EXPECT_EQ(v.transversals, 0);
-    EXPECT_EQ(count_type(v, kernels::PatchInfo::Type::Cylinder), 1);
+    // Its fan failed (one folded cylinder, 3 flipped uv triangles) before the bisection.
+    EXPECT_EQ(count_type(v, kernels::PatchInfo::Type::Disk), 2);
+    EXPECT_LT(rectangle_error(v), kRectangleTol);
     // Well-shaped meshes have no cylinder to open.
     EXPECT_EQ(segment(*test::corpus_mesh("eight")).transversals, 0);
 }
@@ -493,11 +536,13 @@ TEST(Segmentation, VerticalModeCutsClosedSurfacesIntoCylinders) {
     }
 }
 
-// On turbine the form folds in 17 cylinders (zero regions the fans could not regularise): they
-// are laid out again on their flat cylinders, loops on their iso-u lines.
+// On turbine, its failed fans left as they are (no refinement), the form folds in 17 cylinders
+// (zero regions the fans could not regularise): they are laid out again on their flat
+// cylinders, loops on their iso-u lines.
 TEST(Segmentation, VerticalModeRepairsFoldedCylinders) {
     SegmentOptions o;
     o.mode = SegmentMode::Vertical;
+    o.fan_refinement_rounds = 0;
     const SegmentationResult r = segment(*test::corpus_mesh("turbine"), o);
     Index repaired = 0;
     for (const kernels::PatchInfo& p : r.patches.info) {

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <string>
 #include <utility>
 #include <vector>
@@ -10,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "holoflow/kernels/double_cover.h"
+#include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/topology.h"
@@ -91,6 +93,142 @@ TEST(SubdivideMidpoint, KeepsGeometryAndOrientation) {
         }
         EXPECT_NEAR(area_after, area_before, kAreaRelTol * area_before);
     }
+}
+
+// Smallest corner angle over the faces.
+double smallest_angle(const MeshView& m) {
+    double smallest = std::numbers::pi;
+    for (Index f = 0; f < m.n_faces(); ++f)
+        for (int k = 0; k < 3; ++k) {
+            const Eigen::Vector3d u = corner(m, f, (k + 1) % 3) - corner(m, f, k), w = corner(m, f, (k + 2) % 3) - corner(m, f, k);
+            smallest = std::min(smallest, std::atan2(u.cross(w).norm(), u.dot(w)));
+        }
+    return smallest;
+}
+
+TEST(BisectLongEdges, KeepsTopologyGeometryAndOrientation) {
+    for (const Case& c : cases()) {
+        SCOPED_TRACE(c.name);
+        const MeshView& m = c.mesh;
+        double longest = 0;
+        for (Index e = 0; e < m.n_edges(); ++e) longest = std::max(longest, (m.V.row(m.E(e, 0)) - m.V.row(m.E(e, 1))).norm());
+        const double max_length = 0.3 * longest;
+        const MeshView s = bisect_long_edges(m, max_length);
+        const Topology before = compute_topology(m), after = compute_topology(s);
+        EXPECT_EQ(after.genus, before.genus);
+        EXPECT_EQ(after.euler_characteristic, before.euler_characteristic);
+        EXPECT_EQ(after.boundary_loops, before.boundary_loops);
+        EXPECT_EQ(s.is_closed(), m.is_closed());
+        EXPECT_GT(s.n_faces(), m.n_faces());
+        for (Index e = 0; e < s.n_edges(); ++e)
+            EXPECT_LE((s.V.row(s.E(e, 0)) - s.V.row(s.E(e, 1))).norm(), max_length);
+        ASSERT_GE(s.n_vertices(), m.n_vertices());
+        EXPECT_EQ(s.V.topRows(m.n_vertices()), m.V);
+        // Every face of the input is tiled by the faces its id and the new ids give it: the
+        // oriented area vectors add up to the same total (no face lost, doubled or flipped).
+        Eigen::Vector3d total_in = Eigen::Vector3d::Zero(), total_out = Eigen::Vector3d::Zero();
+        double area_in = 0, area_out = 0;
+        for (Index f = 0; f < m.n_faces(); ++f) total_in += area_vector(m, f), area_in += area_vector(m, f).norm();
+        for (Index f = 0; f < s.n_faces(); ++f) total_out += area_vector(s, f), area_out += area_vector(s, f).norm();
+        EXPECT_NEAR(area_out, area_in, kAreaRelTol * area_in);
+        EXPECT_LE((total_out - total_in).norm(), kAreaRelTol * area_in);
+    }
+}
+
+TEST(BisectLongEdges, NewVerticesAreEdgeMidpointsOnTheSurface) {
+    const MeshView m = shapes::torus(2.0, 0.7, 9, 6);
+    const MeshView s = bisect_long_edges(m, 0.2);
+    // A new vertex sits halfway between two vertices it is joined to, on a straight line.
+    for (Index v = m.n_vertices(); v < s.n_vertices(); ++v) {
+        std::vector<Index> neighbours;
+        for (Index h = 0; h < s.n_halfedges(); ++h)
+            if (s.tail(h) == v) neighbours.push_back(s.head(h));
+        bool midpoint = false;
+        for (Index a : neighbours)
+            for (Index b : neighbours)
+                midpoint = midpoint || (a < b && (s.V.row(v) - 0.5 * (s.V.row(a) + s.V.row(b))).norm() < 1e-12);
+        EXPECT_TRUE(midpoint) << "vertex " << v;
+    }
+}
+
+TEST(BisectLongEdges, KeepsHalfTheSmallestAngle) {
+    // Rivara: splitting the longest edge first at most halves the smallest angle, on needles
+    // (one ring of a tall thin cylinder) and on a coarse torus refined far down.
+    for (const MeshView& m : {shapes::cylinder(0.1, 4.0, 8, 1), shapes::torus(2.0, 0.7, 9, 6)}) {
+        const MeshView s = bisect_long_edges(m, 0.05);
+        EXPECT_GT(s.n_faces(), 20 * m.n_faces());
+        EXPECT_GE(smallest_angle(s), 0.5 * smallest_angle(m) * (1 - 1e-9));
+    }
+}
+
+TEST(BisectLongEdges, LeavesShortEdgesAloneAndRejectsNonPositiveLengths) {
+    const MeshView m = shapes::icosphere(1);
+    const MeshView s = bisect_long_edges(m, 10.0);
+    EXPECT_EQ(s.F, m.F);
+    EXPECT_EQ(s.V, m.V);
+    EXPECT_THROW(bisect_long_edges(m, 0.0), InvalidInput);
+    EXPECT_THROW(bisect_long_edges(m, -1.0), InvalidInput);
+}
+
+// Interior edges whose opposite angles add up to more than pi (cotangents summing below 0).
+Index non_delaunay_edges(const MeshView& m) {
+    Index count = 0;
+    const auto cot_at = [&](Index h) {  // angle opposite halfedge h, in its face
+        const Index f = MeshView::face(h), k = h % 3;
+        const Eigen::Vector3d p = corner(m, f, (k + 2) % 3), a = corner(m, f, k) - p, b = corner(m, f, (k + 1) % 3) - p;
+        return a.dot(b) / a.cross(b).norm();
+    };
+    for (Index e = 0; e < m.n_edges(); ++e) {
+        const Index h = m.edge_halfedge[e];
+        if (m.twin[h] != kNoHalfedge && cot_at(h) + cot_at(m.twin[h]) < -1e-9) ++count;
+    }
+    return count;
+}
+
+// A sheared grid: every cell a parallelogram whose grid diagonal is the long one.
+MeshView sheared_grid(int n, double lift) {
+    MeshView m = shapes::flat_grid(n, n);
+    PointMatrix V = m.V;
+    for (Index v = 0; v < V.rows(); ++v) {
+        V(v, 0) += 3 * V(v, 1);
+        V(v, 2) = lift * std::max(0.0, V(v, 1) - 0.5);  // lift > 0: a crease along y = 0.5
+    }
+    return make_mesh_view(std::move(V), m.F);
+}
+
+TEST(FlipFlatEdgesToDelaunay, MakesAFlatSheetDelaunayWithTheSameGeometry) {
+    const MeshView m = sheared_grid(8, 0.0);
+    ASSERT_GT(non_delaunay_edges(m), 20);
+    const MeshView s = flip_flat_edges_to_delaunay(m);
+    EXPECT_EQ(non_delaunay_edges(s), 0);
+    EXPECT_EQ(s.V, m.V);
+    EXPECT_EQ(s.n_faces(), m.n_faces());
+    EXPECT_EQ(compute_topology(s).boundary_loops, 1);
+    double area_in = 0, area_out = 0;
+    Eigen::Vector3d total_in = Eigen::Vector3d::Zero(), total_out = Eigen::Vector3d::Zero();
+    for (Index f = 0; f < m.n_faces(); ++f) total_in += area_vector(m, f), area_in += area_vector(m, f).norm();
+    for (Index f = 0; f < s.n_faces(); ++f) total_out += area_vector(s, f), area_out += area_vector(s, f).norm();
+    EXPECT_NEAR(area_out, area_in, kAreaRelTol * area_in);
+    EXPECT_LE((total_out - total_in).norm(), kAreaRelTol * area_in);
+    EXPECT_GT(smallest_angle(s), smallest_angle(m));
+}
+
+TEST(FlipFlatEdgesToDelaunay, KeepsCreasesAndCurvedParts) {
+    // Creased: both flat halves are made Delaunay, the crease's edges stay (a flip across
+    // them would cut the corner off the fold).
+    const MeshView creased = sheared_grid(8, 1.0);
+    const MeshView s = flip_flat_edges_to_delaunay(creased);
+    EXPECT_LT(non_delaunay_edges(s), non_delaunay_edges(creased));
+    for (Index e = 0; e < creased.n_edges(); ++e) {
+        const Index a = creased.E(e, 0), b = creased.E(e, 1);
+        if (creased.V(a, 1) != 0.5 || creased.V(b, 1) != 0.5) continue;
+        bool kept = false;
+        for (Index x = 0; x < s.n_edges() && !kept; ++x) kept = std::minmax(s.E(x, 0), s.E(x, 1)) == std::minmax(a, b);
+        EXPECT_TRUE(kept) << "crease edge " << a << "-" << b;
+    }
+    for (const MeshView& curved : {shapes::icosphere(2), shapes::torus(2.0, 0.7, 9, 6)})
+        EXPECT_EQ(flip_flat_edges_to_delaunay(curved).F, curved.F);
+    EXPECT_THROW(flip_flat_edges_to_delaunay(creased, -1.0), InvalidInput);
 }
 
 TEST(SubdivideMidpoint, ChildCornersLieOnTheParentFace) {

@@ -32,6 +32,9 @@ struct SegmentOptions {
     std::vector<Index> tips;
     int max_tips = 8;           //!< automatic detection keeps at most this many
     double hole_size = 0.02;    //!< hole radius, fraction of sqrt(area / 4 pi)
+    //! Where zero fans fail: the midpoint subdivision (small surfaces) and up to this many
+    //! bisections around the failed fans, each a new conformal solve; 0: none.
+    int fan_refinement_rounds = 3;
 };
 
 //! Everything the segmentation computes for one mesh (DESIGN 2.5-2.7).
@@ -44,9 +47,11 @@ struct SegmentationResult {
     //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
     //! input's vertex ids, so tips below its vertex count are input vertices.
     int tip_refinements = 0;
-    //! 1 where zero fans failed on a small traced surface and fewer failed on its midpoint
-    //! subdivision: traced_input is then the refined one, with the same vertex ids for the
-    //! vertices it had; 0 otherwise.
+    //! Refinements of the traced surface kept because fewer zero fans failed on them (its
+    //! midpoint subdivision while small, then bisections around the failed fans, see
+    //! SegmentOptions::fan_refinement_rounds):
+    //! traced_input is then the refined one, with the same vertex ids for the vertices it had;
+    //! 0 where every fan worked.
     int fan_refinements = 0;
     ConformalResult conformal;
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface

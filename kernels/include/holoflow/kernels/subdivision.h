@@ -1,5 +1,7 @@
 #pragma once
 
+#include <span>
+
 #include "holoflow/kernels/mesh_view.h"
 
 namespace holoflow::kernels {
@@ -13,6 +15,29 @@ namespace holoflow::kernels {
 //! F(f, k), 4f + 3 the middle one. Counts: V' = V + E, E' = 2E + 3F, F' = 4F; boundary loops
 //! double in length; genus and Euler characteristic are unchanged.
 MeshView subdivide_midpoint(const MeshView& mesh);
+
+//! \brief Longest-edge bisection keeping the geometry: while an edge is longer than
+//! `max_length`, the longest one (ties by vertex ids) is split at its midpoint, and each
+//! triangle on it into two through its opposite corner. Splitting the longest edge first
+//! (Rivara) at most halves the smallest angle and cuts long thin triangles across, where the
+//! 1-to-4 split copies their shape. With a `zone` (#V flags) only edges with both ends in it
+//! split (their midpoints join it): the refinement stays where it is asked for, its
+//! neighbours split once where they touch it.
+//!
+//! Layout: vertex v < #V is input vertex v, new vertices follow in split order; face f < #F
+//! lies inside input face f, new faces follow. Genus, boundary loops and orientation are
+//! unchanged. Deterministic.
+//! \throw InvalidInput if max_length is not positive or zone is neither empty nor #V long.
+MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone = {});
+
+//! \brief Lawson's flips where they keep the geometry: an interior edge whose two triangles lie
+//! in one plane (the far corner within `flatness` times the longest side of it) and form a
+//! convex quadrilateral is flipped while its opposite angles add up to more than pi. Flat parts
+//! end up Delaunay (the slivers of CAD meshes and of bisect_long_edges gone where the vertices
+//! allow); curved parts stay as they are. Vertices and face count are kept, faces are rewritten
+//! in place; no edge doubles another. Deterministic.
+//! \throw InvalidInput if flatness is negative.
+MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness = 1e-10);
 
 }  // namespace holoflow::kernels
 
