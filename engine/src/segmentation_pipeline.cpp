@@ -292,9 +292,13 @@ void fans(SegmentationWork& work) {
     // too few: a patch around it winds twice, or the form's uv folds there. The zeros get room
     // on a refined surface: the midpoint subdivision while small (a tetrahedron's zeros need
     // every face split), then rounds of bisection around the fans still failed; each is kept
-    // while fewer regions fail on it. The time counts as the fans'.
+    // while fewer regions fail on it. Each try's conformal stages count as those stages (added
+    // to them), the rest as the fans'.
+    StageTimes refined_conformal;
     const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined) {
-        if (!refined || refined->result.regular.failed_regions >= r.regular.failed_regions) return false;
+        if (!refined) return false;
+        for (const auto& stage : refined->result.conformal.timings_ms) refined_conformal.push_back(stage);
+        if (refined->result.regular.failed_regions >= r.regular.failed_regions) return false;
         SegmentationResult& f = refined->result;
         r.traced_input = std::move(f.traced_input);
         r.conformal = std::move(f.conformal);
@@ -331,6 +335,12 @@ void fans(SegmentationWork& work) {
         r.zero_vertices.push_back(v);
     }
     clock.lap("zero_fans");
+    for (const auto& [stage, ms] : refined_conformal) {
+        r.timings_ms.back().second -= ms;
+        const auto same = std::find_if(r.timings_ms.begin(), r.timings_ms.end(), [&](const auto& t) { return t.first == stage; });
+        if (same != r.timings_ms.end() - 1) same->second += ms;
+        else r.timings_ms.insert(r.timings_ms.end() - 1, {stage, ms});
+    }
 }
 
 // A mesh and closed form with face `f` split at the point of barycentric weights `w` (a new
