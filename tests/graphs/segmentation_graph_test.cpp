@@ -53,7 +53,8 @@ std::vector<std::string> mixed_collection(const TempDir& dir) {
             corpus("elephant.off"),
             (dir.path() / "missing.off").string(),
             corpus("bull.off"),
-            corpus("knot2.off")};  // two knotted tori: segmented per component
+            corpus("knot2.off"),  // two knotted tori: segmented per component
+            corpus("oblong.off")};  // its failed fan gets room on the bisected surface
 }
 
 class ThreadSweep : public ::testing::TestWithParam<int> {};
@@ -87,13 +88,14 @@ TEST_P(ThreadSweep, GraphMatchesSerialTwin) {
     EXPECT_EQ(graph[1].outcome.status.kind, "header_mismatch");  // 4 vertices announced, 2 given
     EXPECT_EQ(graph[4].outcome.status.kind, "non_manifold_edge");
     EXPECT_EQ(graph[6].outcome.status.kind, "file_not_found");
-    for (std::size_t i : {0u, 2u, 3u, 5u, 7u, 8u}) {
+    for (std::size_t i : {0u, 2u, 3u, 5u, 7u, 8u, 9u}) {
         EXPECT_TRUE(graph[i].outcome.status.ok()) << paths[i] << ": " << graph[i].outcome.status.message;
         EXPECT_GT(graph[i].outcome.patches, 0);
     }
     EXPECT_EQ(graph[0].outcome.zeros, 2);  // eight: 2g - 2
     EXPECT_EQ(graph[5].outcome.zeros, 4);  // elephant
     EXPECT_EQ(graph[8].report["component_count"], 2);
+    EXPECT_GE(graph[9].report["fan_refinements"].get<int>(), 1);
 }
 
 INSTANTIATE_TEST_SUITE_P(Threads, ThreadSweep, ::testing::Values(1, 2, 8),
