@@ -24,10 +24,12 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 // Where a cylinder's border is no straight loop a transversal may only cut a disk off it; the
 // cylinder left is opened in the next round.
 constexpr int kCylinderRounds = 4;
-// Where zero fans fail, the surface is refined around them (this many rings) and the midpoint
-// subdivision is tried while it stays this small (a second step cost oblong-shuffled 25x its
-// time and still left a region failed).
+// Where zero fans fail the surface is refined: bisected this many rings around them,
 constexpr int kFanZoneRings = 4;
+// up to this many times its faces (cheese's bisection of every edge: 4.1x),
+constexpr Index kMaxFanRefinementGrowth = 8;
+// and first subdivided (midpoint) while that stays this small (a second step cost
+// oblong-shuffled 25x its time and still left a region failed).
 constexpr Index kMaxMidpointRefinedFaces = 20000;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
@@ -251,8 +253,10 @@ MeshView bisected_surface(const MeshView& surface, std::span<const char> zone) {
 }
 
 // The conformal stage, the zeros and the fans again on a refinement of the traced surface (same
-// shape, same vertex ids); nothing where that fails.
-std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options) {
+// shape, same vertex ids); nothing where that fails, would need more memory than allowed or
+// has more than max_faces.
+std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options, Index max_faces) {
+    if (surface.n_faces() > max_faces) return std::nullopt;
     SegmentationWork refined;
     refined.options = options;
     try {
@@ -266,6 +270,8 @@ std::optional<SegmentationWork> on_refined_surface(MeshView surface, const Segme
     } catch (const InvalidInput&) {
         return std::nullopt;
     } catch (const SolverFailure&) {
+        return std::nullopt;
+    } catch (const ResourceLimit&) {
         return std::nullopt;
     }
     return refined;
@@ -314,11 +320,13 @@ void fans(SegmentationWork& work) {
         return true;
     };
     const int rounds = work.options.fan_refinement_rounds;
+    const Index max_faces = kMaxFanRefinementGrowth * r.traced_input->n_faces();
     if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
-        keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), work.options));
+        keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), work.options, max_faces));
     for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
         const std::vector<char> zone = failed_fan_zone(*r.traced_input, work.regions, r.regular);
-        if (!keep_if_fewer_fail(on_refined_surface(bisected_surface(*r.traced_input, zone), work.options))) break;
+        if (!keep_if_fewer_fail(on_refined_surface(bisected_surface(*r.traced_input, zone), work.options, max_faces)))
+            break;
     }
     const MeshView& traced = *r.traced_input;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;
