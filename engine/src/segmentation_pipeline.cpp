@@ -26,8 +26,10 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 constexpr int kCylinderRounds = 4;
 // Where zero fans fail the surface is refined: bisected this many rings around them,
 constexpr int kFanZoneRings = 4;
-// up to this many times its faces (cheese's bisection of every edge: 4.1x),
+// up to this many times its faces (cheese's bisection of every edge: 4.1x) or, on a small one,
+// this many faces (oblong's slivers: 17x),
 constexpr Index kMaxFanRefinementGrowth = 8;
+constexpr Index kFanRefinementFaces = 100000;
 // and first subdivided (midpoint) while that stays this small (a second step cost
 // oblong-shuffled 25x its time and still left a region failed).
 constexpr Index kMaxMidpointRefinedFaces = 20000;
@@ -320,7 +322,7 @@ void fans(SegmentationWork& work) {
         return true;
     };
     const int rounds = work.options.fan_refinement_rounds;
-    const Index max_faces = kMaxFanRefinementGrowth * r.traced_input->n_faces();
+    const Index max_faces = std::max(kMaxFanRefinementGrowth * r.traced_input->n_faces(), kFanRefinementFaces);
     if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
         keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), work.options, max_faces));
     for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
