@@ -248,6 +248,7 @@ MeshView bisected_surface(const MeshView& surface, std::span<const char> zone) {
     for (Index e = 0; e < surface.n_edges(); ++e)
         if (zone.empty() || (zone[surface.E(e, 0)] && zone[surface.E(e, 1)]))
             length.push_back((surface.V.row(surface.E(e, 0)) - surface.V.row(surface.E(e, 1))).norm());
+    if (length.empty()) return surface;
     auto median = length.begin() + static_cast<std::ptrdiff_t>(length.size() / 2);
     std::nth_element(length.begin(), median, length.end());
     const double factor = zone.empty() ? 1.0 : 0.5;

@@ -154,7 +154,7 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
     const auto key = [&](Index u, Index w) {
         return (static_cast<std::uint64_t>(std::min(u, w)) << 32) | static_cast<std::uint64_t>(std::max(u, w));
     };
-    std::unordered_set<std::uint64_t> edges;
+    std::unordered_multiset<std::uint64_t> edges;  // a multiset: two edges may join one vertex pair
     for (Index e = 0; e < mesh.n_edges(); ++e) edges.insert(key(mesh.E(e, 0), mesh.E(e, 1)));
     // cot of the angle at p in triangle p q r, in 3D.
     const auto cot = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& r) {
@@ -194,7 +194,7 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
         };
         // New slots: 3f: c->a, 3f+1: a->d, 3f+2: d->c; 3g: d->b, 3g+1: b->c, 3g+2: c->d.
         link(3 * f, o_ca), link(3 * f + 1, o_ad), link(3 * g, o_db), link(3 * g + 1, o_bc), link(3 * f + 2, 3 * g + 2);
-        edges.erase(key(a, b));
+        edges.erase(edges.find(key(a, b)));
         edges.insert(key(c, d));
         for (Index x : {3 * f, 3 * f + 1, 3 * g, 3 * g + 1})
             if (twin[x] != kNoHalfedge) queue.push_back(x);
