@@ -3,10 +3,8 @@
 #include <array>
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <queue>
 #include <tuple>
-#include <unordered_set>
 
 #include <Eigen/Geometry>
 
@@ -151,11 +149,22 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
     const auto tail = [&](Index h) { return F(h / 3, h % 3); };
     const auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
     const auto point = [&](Index v) -> Eigen::Vector3d { return mesh.V.row(v).transpose(); };
-    const auto key = [&](Index u, Index w) {
-        return (static_cast<std::uint64_t>(std::min(u, w)) << 32) | static_cast<std::uint64_t>(std::max(u, w));
+    // Is there an edge from the tail of h0 to w? Around the tail both ways (to the boundary).
+    const auto joined = [&](Index h0, Index w) {
+        for (Index h = h0;;) {  // counter-clockwise
+            if (head(h) == w) return true;
+            const Index t = twin[MeshView::prev(h)];
+            if (t == kNoHalfedge) break;
+            if ((h = t) == h0) return false;
+        }
+        for (Index h = h0;;) {  // clockwise
+            const Index t = twin[h];
+            if (t == kNoHalfedge) return false;
+            h = MeshView::next(t);
+            if (h == h0) return false;
+            if (head(h) == w) return true;
+        }
     };
-    std::unordered_multiset<std::uint64_t> edges;  // a multiset: two edges may join one vertex pair
-    for (Index e = 0; e < mesh.n_edges(); ++e) edges.insert(key(mesh.E(e, 0), mesh.E(e, 1)));
     // cot of the angle at p in triangle p q r, in 3D.
     const auto cot = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& r) {
         const Eigen::Vector3d u = q - p, w = r - p;
@@ -171,7 +180,7 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
         if (t == kNoHalfedge || t / 3 == h / 3) continue;
         // Quad a -> d -> b -> c: h = a->b in (a, b, c), t = b->a in (b, a, d).
         const Index a = tail(h), b = head(h), c = head(MeshView::next(h)), d = head(MeshView::next(t));
-        if (c == d || edges.count(key(c, d))) continue;
+        if (c == d) continue;
         const Eigen::Vector3d pa = point(a), pb = point(b), pc = point(c), pd = point(d);
         const Eigen::Vector3d n = (pb - pa).cross(pc - pa);
         if (!(n.norm() > 0)) continue;
@@ -183,6 +192,7 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
             continue;
         // Convex: both new triangles (c, a, d) and (d, b, c) turn the way the old ones did.
         if (!((pa - pc).cross(pd - pc).dot(n) > 0) || !((pb - pd).cross(pc - pd).dot(n) > 0)) continue;
+        if (joined(MeshView::prev(h), d)) continue;  // c -> a leaves c; the flip would double c-d
         const Index f = h / 3, g = t / 3;
         const Index ca = MeshView::prev(h), bc = MeshView::next(h), ad = MeshView::next(t), db = MeshView::prev(t);
         const Index o_ca = twin[ca], o_bc = twin[bc], o_ad = twin[ad], o_db = twin[db];
@@ -194,8 +204,6 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
         };
         // New slots: 3f: c->a, 3f+1: a->d, 3f+2: d->c; 3g: d->b, 3g+1: b->c, 3g+2: c->d.
         link(3 * f, o_ca), link(3 * f + 1, o_ad), link(3 * g, o_db), link(3 * g + 1, o_bc), link(3 * f + 2, 3 * g + 2);
-        edges.erase(edges.find(key(a, b)));
-        edges.insert(key(c, d));
         for (Index x : {3 * f, 3 * f + 1, 3 * g, 3 * g + 1})
             if (twin[x] != kNoHalfedge) queue.push_back(x);
     }
