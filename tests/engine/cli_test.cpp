@@ -247,6 +247,30 @@ TEST(Cli, SegmentRefusesBadOptions) {
     EXPECT_NE(tips.err.find("tips"), std::string::npos);
     const auto bad_tip = test::run_cli("segment '" + test::corpus("bull.off") + "' -o '" + out + "' --tips 1,999999999");
     EXPECT_EQ(bad_tip.status, 3) << bad_tip.err;
+    for (const char* rounds : {"-1", "9", "many"}) {
+        const auto r = test::run_cli("segment '" + test::corpus("eight.off") + "' -o '" + out + "' --fan-refinements " + rounds);
+        EXPECT_EQ(r.status, 2) << rounds;
+        EXPECT_NE(r.err.find("--fan-refinements"), std::string::npos) << r.err;
+    }
+}
+
+// oblong's one failed fan: refined by default (exact rectangles), left as it is with 0 rounds.
+TEST(Cli, FanRefinementsCanBeTurnedOff) {
+    test::TempDir dir;
+    const std::string mesh = test::corpus("oblong.off");
+    const auto refined = test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "a").string() + "' --json");
+    ASSERT_EQ(refined.status, 0) << refined.err;
+    const auto a = nlohmann::json::parse(refined.out);
+    EXPECT_GE(a["fan_refinements"].get<int>(), 1);
+    EXPECT_EQ(a["zero_fans"]["failed"], 0);
+    EXPECT_LT(a["rectangle_error_max"].get<double>(), 1e-9);
+    const auto plain =
+        test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "b").string() + "' --json --fan-refinements 0");
+    ASSERT_EQ(plain.status, 0) << plain.err;
+    const auto b = nlohmann::json::parse(plain.out);
+    EXPECT_EQ(b["fan_refinements"], 0);
+    EXPECT_GT(b["zero_fans"]["failed"].get<int>(), 0);
+    EXPECT_LT(b["faces"].get<int>(), a["faces"].get<int>());
 }
 
 }  // namespace
