@@ -210,6 +210,30 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
     }
 }
 
+// A refined try the memory limit refuses is skipped: the model keeps its own surface (its
+// failed fans as they are) instead of failing.
+TEST(Segmentation, FanRefinementOverTheMemoryLimitIsSkipped) {
+    const std::shared_ptr<const MeshView> turbine = test::corpus_mesh("turbine");
+    SegmentOptions o;
+    o.conformal.max_solver_bytes = 1;
+    std::size_t need_mib = 0;
+    try {
+        segment(*turbine, o);
+        FAIL() << "a 1-byte limit must refuse";
+    } catch (const ResourceLimit& e) {
+        const std::string what = e.what();  // "the solver would need about N MiB, ..."
+        const std::size_t at = what.find("about ");
+        ASSERT_NE(at, std::string::npos) << what;
+        need_mib = std::stoul(what.substr(at + 6));
+    }
+    o.conformal.max_solver_bytes = (need_mib + 1) << 20;  // the input fits, its refinement not
+    const SegmentationResult r = segment(*turbine, o);
+    EXPECT_EQ(r.fan_refinements, 0);
+    EXPECT_GT(r.regular.failed_regions, 0);
+    EXPECT_EQ(r.traced_input->n_faces(), turbine->n_faces());
+    EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+}
+
 // A genus-0 surface sliced at two tips is an annulus that no critical trajectory crosses (no
 // zeros): layout mode opens it into one exact rectangle. oblong (around a sliced tip) and
 // tetrahedron (a cylinder whose border is no straight loop) had a cylinder patch next to
