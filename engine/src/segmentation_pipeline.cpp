@@ -248,7 +248,7 @@ MeshView bisected_surface(const MeshView& surface, std::span<const char> zone) {
     for (Index e = 0; e < surface.n_edges(); ++e)
         if (zone.empty() || (zone[surface.E(e, 0)] && zone[surface.E(e, 1)]))
             length.push_back((surface.V.row(surface.E(e, 0)) - surface.V.row(surface.E(e, 1))).norm());
-    if (length.empty()) return surface;
+    if (length.empty()) return surface;  // nothing to split
     auto median = length.begin() + static_cast<std::ptrdiff_t>(length.size() / 2);
     std::nth_element(length.begin(), median, length.end());
     const double factor = zone.empty() ? 1.0 : 0.5;
@@ -311,7 +311,7 @@ void fans(SegmentationWork& work) {
     StageTimes refined_conformal;
     const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined) {
         if (!refined) return false;
-        for (const auto& stage : refined->result.conformal.timings_ms) refined_conformal.push_back(stage);
+        add_stage_times(refined_conformal, refined->result.conformal.timings_ms);
         if (refined->result.regular.failed_regions >= r.regular.failed_regions) return false;
         SegmentationResult& f = refined->result;
         r.traced_input = std::move(f.traced_input);
@@ -327,9 +327,9 @@ void fans(SegmentationWork& work) {
     if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
         keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), work.options, max_faces));
     for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
-        const std::vector<char> zone = failed_fan_zone(*r.traced_input, work.regions, r.regular);
-        if (!keep_if_fewer_fail(on_refined_surface(bisected_surface(*r.traced_input, zone), work.options, max_faces)))
-            break;
+        MeshView bisected = bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular));
+        if (bisected.n_faces() == r.traced_input->n_faces()) break;  // no edge split: the same solve again
+        if (!keep_if_fewer_fail(on_refined_surface(std::move(bisected), work.options, max_faces))) break;
     }
     const MeshView& traced = *r.traced_input;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;
@@ -351,12 +351,8 @@ void fans(SegmentationWork& work) {
         r.zero_vertices.push_back(v);
     }
     clock.lap("zero_fans");
-    for (const auto& [stage, ms] : refined_conformal) {
-        r.timings_ms.back().second -= ms;
-        const auto same = std::find_if(r.timings_ms.begin(), r.timings_ms.end(), [&](const auto& t) { return t.first == stage; });
-        if (same != r.timings_ms.end() - 1) same->second += ms;
-        else r.timings_ms.insert(r.timings_ms.end() - 1, {stage, ms});
-    }
+    for (const auto& stage : refined_conformal) r.timings_ms.back().second -= stage.second;
+    add_stage_times(r.timings_ms, refined_conformal);
 }
 
 // A mesh and closed form with face `f` split at the point of barycentric weights `w` (a new
@@ -700,12 +696,7 @@ SegmentationPicture segmentation_picture(const SegmentationResult& r) {
 StageTimes summed_times(std::span<const SegmentationResult> components) {
     HOLOFLOW_REQUIRE(!components.empty(), "no component to time");
     StageTimes sum = components.front().timings_ms;
-    for (const SegmentationResult& r : components.subspan(1))
-        for (const auto& [stage, ms] : r.timings_ms) {
-            const auto it = std::find_if(sum.begin(), sum.end(), [&](const auto& entry) { return entry.first == stage; });
-            if (it == sum.end()) sum.emplace_back(stage, ms);
-            else it->second += ms;
-        }
+    for (const SegmentationResult& r : components.subspan(1)) add_stage_times(sum, r.timings_ms);
     return sum;
 }
 

@@ -157,4 +157,35 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
     return m;
 }
 
+void flip_edge(TriangleMatrix& F, std::vector<Index>& twin, Index h) {
+    const Index t = twin[h], f = MeshView::face(h), g = MeshView::face(t);
+    const Index a = F(f, h % 3), b = F(g, t % 3), c = F(f, (h % 3 + 2) % 3), d = F(g, (t % 3 + 2) % 3);
+    const Index o_ca = twin[MeshView::prev(h)], o_bc = twin[MeshView::next(h)];
+    const Index o_ad = twin[MeshView::next(t)], o_db = twin[MeshView::prev(t)];
+    F.row(f) << c, a, d;
+    F.row(g) << d, b, c;
+    const auto link = [&](Index x, Index y) {
+        twin[x] = y;
+        if (y != kNoHalfedge) twin[y] = x;
+    };
+    link(3 * f, o_ca), link(3 * f + 1, o_ad), link(3 * g, o_db), link(3 * g + 1, o_bc), link(3 * f + 2, 3 * g + 2);
+}
+
+bool joins(const TriangleMatrix& F, const std::vector<Index>& twin, Index h0, Index w) {
+    const auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
+    for (Index h = h0;;) {  // counter-clockwise
+        if (head(h) == w) return true;
+        const Index t = twin[MeshView::prev(h)];
+        if (t == kNoHalfedge) break;
+        if ((h = t) == h0) return false;
+    }
+    for (Index h = h0;;) {  // clockwise
+        const Index t = twin[h];
+        if (t == kNoHalfedge) return false;
+        h = MeshView::next(t);
+        if (h == h0) return false;
+        if (head(h) == w) return true;
+    }
+}
+
 }  // namespace holoflow

@@ -149,22 +149,6 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
     const auto tail = [&](Index h) { return F(h / 3, h % 3); };
     const auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
     const auto point = [&](Index v) -> Eigen::Vector3d { return mesh.V.row(v).transpose(); };
-    // Is there an edge from the tail of h0 to w? Around the tail both ways (to the boundary).
-    const auto joined = [&](Index h0, Index w) {
-        for (Index h = h0;;) {  // counter-clockwise
-            if (head(h) == w) return true;
-            const Index t = twin[MeshView::prev(h)];
-            if (t == kNoHalfedge) break;
-            if ((h = t) == h0) return false;
-        }
-        for (Index h = h0;;) {  // clockwise
-            const Index t = twin[h];
-            if (t == kNoHalfedge) return false;
-            h = MeshView::next(t);
-            if (h == h0) return false;
-            if (head(h) == w) return true;
-        }
-    };
     // cot of the angle at p in triangle p q r, in 3D.
     const auto cot = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& q, const Eigen::Vector3d& r) {
         const Eigen::Vector3d u = q - p, w = r - p;
@@ -192,18 +176,9 @@ MeshView flip_flat_edges_to_delaunay(const MeshView& mesh, double flatness) {
             continue;
         // Convex: both new triangles (c, a, d) and (d, b, c) turn the way the old ones did.
         if (!((pa - pc).cross(pd - pc).dot(n) > 0) || !((pb - pd).cross(pc - pd).dot(n) > 0)) continue;
-        if (joined(MeshView::prev(h), d)) continue;  // c -> a leaves c; the flip would double c-d
+        if (joins(F, twin, MeshView::prev(h), d)) continue;  // c -> a leaves c; the flip would double c-d
+        flip_edge(F, twin, h);
         const Index f = h / 3, g = t / 3;
-        const Index ca = MeshView::prev(h), bc = MeshView::next(h), ad = MeshView::next(t), db = MeshView::prev(t);
-        const Index o_ca = twin[ca], o_bc = twin[bc], o_ad = twin[ad], o_db = twin[db];
-        F.row(f) << c, a, d;
-        F.row(g) << d, b, c;
-        const auto link = [&](Index x, Index y) {
-            twin[x] = y;
-            if (y != kNoHalfedge) twin[y] = x;
-        };
-        // New slots: 3f: c->a, 3f+1: a->d, 3f+2: d->c; 3g: d->b, 3g+1: b->c, 3g+2: c->d.
-        link(3 * f, o_ca), link(3 * f + 1, o_ad), link(3 * g, o_db), link(3 * g + 1, o_bc), link(3 * f + 2, 3 * g + 2);
         for (Index x : {3 * f, 3 * f + 1, 3 * g, 3 * g + 1})
             if (twin[x] != kNoHalfedge) queue.push_back(x);
     }

@@ -1000,20 +1000,6 @@ Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std:
     const auto flipped = [&](Index f) {
         return !ccw(Complex(0), along[3 * f], -along[3 * f + 2]);
     };
-    // Is there an edge between u and w? Walk around u both ways.
-    const auto adjacent = [&](Index h0, Index w) {  // h0 leaves the vertex
-        for (int dir = 0; dir < 2; ++dir) {
-            Index h = h0;  // leaves u
-            for (int guard = 0; guard < 1024; ++guard) {
-                if (head(h) == w) return true;
-                const Index t = dir == 0 ? twin[MeshView::prev(h)] : twin[h];
-                if (t == kNoHalfedge) break;
-                h = dir == 0 ? t : MeshView::next(t);
-                if (h == h0) return false;
-            }
-        }
-        return false;
-    };
     std::vector<Index> queue;
     for (Index f = 0; f < nf; ++f)
         if (flipped(f)) queue.push_back(f);
@@ -1031,28 +1017,20 @@ Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std:
             if (keep[g]) continue;
             // Quad a -> d -> b -> c: h = a->b in (a, b, c), t = b->a in (b, a, d).
             const Index a = tail(h), b = head(h), c = head(MeshView::next(h)), d = head(MeshView::next(t));
-            if (c == d || a == b || adjacent(MeshView::prev(h), d)) continue;
+            if (c == d || a == b || joins(F, twin, MeshView::prev(h), d)) continue;
             const Complex ia = 0, ib = along[h], ic = ib + along[MeshView::next(h)], id = along[MeshView::next(t)];
             // New faces (c, a, d) and (d, b, c).
             if (!ccw(ic, ia, id) || !ccw(id, ib, ic)) continue;
             if (!solid(mesh.V.row(c), mesh.V.row(a), mesh.V.row(d)) ||
                 !solid(mesh.V.row(d), mesh.V.row(b), mesh.V.row(c)))
                 continue;
-            // Outer halfedges keep their twins: c->a, a->d, d->b, b->c.
+            // The outer halfedges keep their twins and values: c->a, a->d, d->b, b->c.
             const Index ca = MeshView::prev(h), bc = MeshView::next(h), ad = MeshView::next(t), db = MeshView::prev(t);
             const Index o_ca = twin[ca], o_bc = twin[bc], o_ad = twin[ad], o_db = twin[db];
             const Complex v_ca = along[ca], v_bc = along[bc], v_ad = along[ad], v_db = along[db];
-            F.row(f) << c, a, d;
-            F.row(g) << d, b, c;
-            const Index n_ca = 3 * f, n_ad = 3 * f + 1, n_dc = 3 * f + 2;
-            const Index n_db = 3 * g, n_bc = 3 * g + 1, n_cd = 3 * g + 2;
-            const auto link = [&](Index x, Index y) {
-                twin[x] = y;
-                if (y != kNoHalfedge) twin[y] = x;
-            };
-            link(n_ca, o_ca), link(n_ad, o_ad), link(n_db, o_db), link(n_bc, o_bc), link(n_dc, n_cd);
-            along[n_ca] = v_ca, along[n_ad] = v_ad, along[n_db] = v_db, along[n_bc] = v_bc;
-            along[n_dc] = ic - id, along[n_cd] = id - ic;
+            flip_edge(F, twin, h);
+            along[3 * f] = v_ca, along[3 * f + 1] = v_ad, along[3 * g] = v_db, along[3 * g + 1] = v_bc;
+            along[3 * f + 2] = ic - id, along[3 * g + 2] = id - ic;  // d -> c, c -> d
             out.original_face[f] = out.original_face[g] = -1;
             ++out.flips;
             for (Index x : {o_ca, o_ad, o_db, o_bc})

@@ -135,6 +135,16 @@ TEST(Segmentation, LayoutPatchesAreRectanglesOnWellShapedMeshes) {
     }
 }
 
+// Every zero fan placed on the refined surface: 2g - 2 zeros, exact rectangles, no repair.
+void expect_every_fan_placed(const SegmentationResult& r) {
+    EXPECT_EQ(r.regular.failed_regions, 0);
+    EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+    EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_LT(rectangle_error(r), kRectangleTol);
+    for (const kernels::PatchInfo& p : r.patches.info) EXPECT_FALSE(p.repaired());
+}
+
 // Where zero fans fail on a small mesh, the zeros get room on its midpoint subdivision. cross
 // (76 faces; a double zero on its symmetry line) had a disk winding twice around a zero traced
 // as a regular point (rectangle error 0.11), anchor 61 folded uv triangles in 14 repaired
@@ -145,13 +155,8 @@ TEST(Segmentation, FailedZeroFansAreRetriedOnTheRefinedMesh) {
         const std::shared_ptr<const MeshView> input = test::corpus_mesh(name);
         const SegmentationResult r = segment(*input);
         EXPECT_EQ(r.fan_refinements, 1);
-        EXPECT_EQ(r.regular.failed_regions, 0);
         EXPECT_EQ(r.traced_input->n_faces() % 4, 0);
-        EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
-        EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
-        EXPECT_EQ(flipped(r), 0);
-        EXPECT_LT(rectangle_error(r), kRectangleTol);
-        for (const kernels::PatchInfo& p : r.patches.info) EXPECT_FALSE(p.repaired());
+        expect_every_fan_placed(r);
     }
     // A mesh whose fans all work is not refined.
     EXPECT_EQ(segment(*test::corpus_mesh("eight")).fan_refinements, 0);
@@ -169,12 +174,7 @@ TEST(Segmentation, FailedZeroFansGetRoomOnABisectedSurface) {
         SegmentOptions unrefined;
         unrefined.fan_refinement_rounds = 0;
         EXPECT_GT(segment(*input, unrefined).regular.failed_regions, 0);
-        EXPECT_EQ(r.regular.failed_regions, 0);
-        EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
-        EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
-        EXPECT_EQ(flipped(r), 0);
-        EXPECT_LT(rectangle_error(r), kRectangleTol);
-        for (const kernels::PatchInfo& p : r.patches.info) EXPECT_FALSE(p.repaired());
+        expect_every_fan_placed(r);
         // Same shape: the input's vertices first, where they were (oblong is sliced at tips
         // first, so only the closed turbine keeps all of them), and the same area.
         const MeshView& traced = *r.traced_input;

@@ -49,9 +49,8 @@ struct SegmentationResult {
     int tip_refinements = 0;
     //! Refinements of the traced surface kept because fewer zero fans failed on them (its
     //! midpoint subdivision while small, then bisections around the failed fans, see
-    //! SegmentOptions::fan_refinement_rounds):
-    //! traced_input is then the refined one, with the same vertex ids for the vertices it had;
-    //! 0 where every fan worked.
+    //! SegmentOptions::fan_refinement_rounds): traced_input is then the refined one, with the
+    //! same vertex ids for the vertices it had; 0 where every fan worked.
     int fan_refinements = 0;
     ConformalResult conformal;
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 
 #include <nlohmann/json.hpp>
@@ -11,6 +12,15 @@ namespace holoflow::engine {
 
 //! Wall time of each stage in order, milliseconds.
 using StageTimes = std::vector<std::pair<std::string, double>>;
+
+//! Adds each stage of `more` to the entry of that name in `times`, appended where there is none.
+inline void add_stage_times(StageTimes& times, const StageTimes& more) {
+    for (const auto& [stage, ms] : more) {
+        const auto it = std::find_if(times.begin(), times.end(), [&](const auto& entry) { return entry.first == stage; });
+        if (it == times.end()) times.emplace_back(stage, ms);
+        else it->second += ms;
+    }
+}
 
 //! Appends the time since the previous lap (or construction) under a stage name.
 class StageClock {

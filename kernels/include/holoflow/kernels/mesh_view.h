@@ -83,4 +83,17 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F);
 //! \throw InvalidInput if `twin` is not an involution pairing opposite halfedges.
 MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin);
 
+// Edge flips on a triangle list and its pairing rewritten in place (kernels that flip as they
+// go, then build one MeshView at the end).
+
+//! \brief Flips the edge of interior halfedge h = a -> b, in face f = (a, b, c), its twin in
+//! g = (b, a, d): f becomes (c, a, d) and g (d, b, c), so halfedge 3f is c -> a, 3f + 1 a -> d,
+//! 3f + 2 d -> c, 3g d -> b, 3g + 1 b -> c, 3g + 2 c -> d; the outer four keep their twins.
+//! \pre twin[h] is a halfedge of another face.
+void flip_edge(TriangleMatrix& F, std::vector<Index>& twin, Index h);
+
+//! An edge joins the tail of halfedge h0 to vertex w (around the tail both ways, up to the
+//! boundary).
+bool joins(const TriangleMatrix& F, const std::vector<Index>& twin, Index h0, Index w);
+
 }  // namespace holoflow
