@@ -1,0 +1,49 @@
+#include "holoflow/kernels/mesh_view.h"
+
+#include <gtest/gtest.h>
+
+#include "holoflow/kernels/shapes.h"
+
+namespace holoflow {
+namespace {
+
+// Unit square a=0 (0,0), b=1 (1,1), c=2 (0,1), d=3 (1,0): faces (a, b, c) and (b, a, d) on the
+// diagonal a-b; the flip puts them on c-d.
+TEST(FlipEdge, TurnsTheDiagonalAndKeepsTheOuterPairing) {
+    PointMatrix V(4, 3);
+    V << 0, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 0;
+    TriangleMatrix F(2, 3);
+    F << 0, 1, 2, 1, 0, 3;
+    const MeshView m = make_mesh_view(V, F);
+    TriangleMatrix G = m.F;
+    std::vector<Index> twin = m.twin;
+    EXPECT_TRUE(joins(G, twin, 0, 1));   // a -> b
+    EXPECT_FALSE(joins(G, twin, 2, 3));  // c -> a leaves c; no c-d yet
+    flip_edge(G, twin, 0);
+    TriangleMatrix expected(2, 3);
+    expected << 2, 0, 3, 3, 1, 2;  // (c, a, d), (d, b, c)
+    EXPECT_EQ(G, expected);
+    EXPECT_EQ(twin[2], 5);  // d -> c and c -> d
+    EXPECT_EQ(twin[5], 2);
+    for (Index h : {0, 1, 3, 4}) EXPECT_EQ(twin[h], kNoHalfedge);  // the square's sides
+    EXPECT_TRUE(joins(G, twin, 0, 3));   // c -> a: c is joined to d now
+    EXPECT_FALSE(joins(G, twin, 1, 1));  // a -> d: a is no longer joined to b
+    // The pairing is the one make_mesh_view derives from the faces.
+    EXPECT_EQ(make_mesh_view(V, G).twin, twin);
+}
+
+TEST(FlipEdge, ClosedMeshStaysAClosedPairing) {
+    const MeshView m = shapes::icosphere(1);
+    TriangleMatrix F = m.F;
+    std::vector<Index> twin = m.twin;
+    const Index a = m.tail(0), b = m.head(0);
+    flip_edge(F, twin, 0);
+    const MeshView flipped = make_mesh_view(m.V, F, twin);
+    EXPECT_TRUE(flipped.is_closed());
+    EXPECT_EQ(flipped.n_edges(), m.n_edges());
+    EXPECT_FALSE(joins(F, twin, 1, b));  // halfedge 1 leaves a after the flip (a -> d)
+    EXPECT_EQ(F(0, 1), a);
+}
+
+}  // namespace
+}  // namespace holoflow
