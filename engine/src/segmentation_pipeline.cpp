@@ -599,6 +599,8 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"saddle_triangulation", z.intrinsic ? "intrinsic_delaunay" : "mesh"},
         {"artifacts", z.artifact_clusters},
         {"fold_clusters", z.fold_clusters},
+        {"flat_clusters", z.flat_clusters},
+        {"unresolved_vertices", z.unresolved_vertices},
         {"artifact_details",
          {{"clusters", z.artifact_clusters},
           {"merged_negative_clusters", z.merged_negative_clusters},

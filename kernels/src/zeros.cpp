@@ -8,6 +8,7 @@
 #include <Eigen/QR>
 
 #include "holoflow/kernels/conformal_map.h"
+#include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
 #include "holoflow/kernels/parallel.h"
@@ -18,6 +19,11 @@ namespace {
 
 using Complex = std::complex<double>;
 constexpr Index kParallelFaces = 20000;
+// A vertex whose harmonicity residual |sum_e w_e du_e| is above this fraction of sum_e w_e |du_e|
+// has du that are rounding noise: resolved vertices sit at 1e-13 and below, noise at 0.1-1
+// (femur, lion, pizza, cheese and elephant-with-holes stretched 2.5:0.6 or jittered; dancer's
+// decaying form spreads between).
+constexpr double kUnresolvedResidual = 1e-3;
 
 // Image of halfedge h; an exactly zero image takes a generic linear image of the 3D edge vector
 // (then of the edge's orientation), so no corner angle is atan2(0, 0).
@@ -104,6 +110,56 @@ std::vector<int> count_saddles(const MeshView& t, Eigen::Ref<const Eigen::Vector
     return m;
 }
 
+// Vertices of the counting triangulation t where u is not resolved (see ZeroSet::unresolved):
+// the form is harmonic for t's cotan weights, so sum_e w_e du_e vanishes at every vertex up to
+// rounding, unless the du themselves are rounding noise (the form numerically zero: a thin fin,
+// a spike, a neck far from any handle); then their signs, so the saddles counted there, mean
+// nothing. None where t's weights cannot be computed.
+std::vector<char> unresolved_vertices(const MeshView& t, std::span<const double> edge_length,
+                                      Eigen::Ref<const Eigen::VectorXd> du) {
+    std::vector<double> weight;
+    try {
+        weight = edge_length.empty() ? cotan_weights(t)
+                                     : cotan_weights_from_lengths(t.halfedge_edge, edge_length, t.n_edges());
+    } catch (const InvalidInput&) {
+        return {};
+    }
+    std::vector<double> residual(t.n_vertices(), 0.0), scale(t.n_vertices(), 0.0);
+    for (Index h = 0; h < t.n_halfedges(); ++h) {
+        const Index e = t.halfedge_edge[h], v = t.tail(h);
+        const double flow = weight[e] * t.edge_sign(h) * du(e);
+        residual[v] += flow;
+        scale[v] += std::abs(flow);
+    }
+    std::vector<char> unresolved(t.n_vertices(), 0);
+    for (Index v = 0; v < t.n_vertices(); ++v)
+        unresolved[v] = !(std::abs(residual[v]) <= kUnresolvedResidual * scale[v]) || scale[v] == 0;
+    return unresolved;
+}
+
+// Per vertex of t its unresolved region (-1: none): the unresolved vertices with their one-ring,
+// joined where they touch, numbered by smallest vertex. Empty where no vertex is unresolved.
+std::vector<Index> flat_regions(const MeshView& t, const std::vector<char>& unresolved) {
+    if (std::find(unresolved.begin(), unresolved.end(), 1) == unresolved.end()) return {};
+    UnionFind regions(t.n_vertices());
+    std::vector<char> in_region = unresolved;
+    for (Index e = 0; e < t.n_edges(); ++e) {
+        const Index a = t.E(e, 0), b = t.E(e, 1);
+        if (!unresolved[a] && !unresolved[b]) continue;
+        regions.unite(a, b);
+        in_region[a] = in_region[b] = 1;
+    }
+    std::vector<Index> region(t.n_vertices(), -1), number(t.n_vertices(), -1);
+    Index count = 0;
+    for (Index v = 0; v < t.n_vertices(); ++v) {
+        if (!in_region[v]) continue;
+        Index& n = number[regions.find(v)];
+        if (n < 0) n = count++;
+        region[v] = n;
+    }
+    return region;
+}
+
 // Mesh adjacency between special vertices, CSR (mesh edges, plus intrinsic edges between
 // saddle vertices so that a saddle group split by an intrinsic edge stays one group).
 struct Adjacency {
@@ -135,6 +191,8 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     // carried exactly through the flips); a mesh it cannot take (zero-area faces) counts on
     // itself. Its edges between two saddles join their groups below.
     std::vector<std::pair<Index, Index>> intrinsic_saddle_edges;
+    std::vector<char> unresolved;
+    std::vector<Index> unresolved_regions;
     {
         Eigen::MatrixXd forms(mesh.n_edges(), 2);
         forms.col(0) = tau.real();
@@ -154,12 +212,19 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
                         intrinsic_saddle_edges.emplace_back(a, b);
                 }
                 z.intrinsic = true;
+                unresolved = unresolved_vertices(t.mesh, t.edge_length, carried.col(0));
+                unresolved_regions = flat_regions(t.mesh, unresolved);
             } catch (const InvalidInput&) {
                 if (options.triangulation) throw;  // a wrong triangulation is the caller's bug
             }
         }
-        if (!z.intrinsic) z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));
+        if (!z.intrinsic) {
+            z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));
+            unresolved = unresolved_vertices(mesh, {}, forms.col(0));
+            unresolved_regions = flat_regions(mesh, unresolved);
+        }
     }
+    z.unresolved_vertices = static_cast<Index>(std::count(unresolved.begin(), unresolved.end(), 1));
 
     // Special vertices and their adjacency.
     std::vector<char> special(nv, 0);
@@ -182,6 +247,16 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         if (z.saddle_order[v] != 0)
             for (Index i = adj.start[v]; i < adj.start[v + 1]; ++i)
                 if (z.saddle_order[adj.next[i]] != 0) groups.unite(v, adj.next[i]);
+    // The saddles of one unresolved region make one group: their noise cancels there.
+    {
+        std::vector<Index> first_saddle(nv, -1);
+        for (Index v = 0; v < nv; ++v) {
+            if (z.saddle_order[v] == 0 || unresolved_regions.empty() || unresolved_regions[v] < 0) continue;
+            Index& first = first_saddle[unresolved_regions[v]];
+            if (first < 0) first = v;
+            else groups.unite(first, v);
+        }
+    }
     std::vector<Index> owner(nv, -1), queue;
     for (Index v = 0; v < nv; ++v)
         if (z.saddle_order[v] != 0 && groups.find(v) == v) owner[v] = v, queue.push_back(v);
@@ -227,12 +302,18 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     const auto has_saddle = [&](const ZeroCluster& cluster) {
         return std::any_of(cluster.vertices.begin(), cluster.vertices.end(), [&](Index v) { return z.saddle_order[v] != 0; });
     };
+    const auto only_unresolved_saddles = [&](const ZeroCluster& cluster) {
+        return std::all_of(cluster.vertices.begin(), cluster.vertices.end(), [&](Index v) {
+            return z.saddle_order[v] == 0 || (!unresolved_regions.empty() && unresolved_regions[v] >= 0);
+        });
+    };
     std::vector<char> was_positive(z.clusters.size(), 0);
     for (std::size_t c = 0; c < z.clusters.size(); ++c) {
         const ZeroCluster& cluster = z.clusters[c];
         if (cluster.index > 0) was_positive[c] = 1;
-        else if (has_saddle(cluster)) ++z.artifact_clusters;
-        else ++z.fold_clusters;
+        else if (!has_saddle(cluster)) ++z.fold_clusters;
+        else if (cluster.index == 0 && only_unresolved_saddles(cluster)) ++z.flat_clusters;
+        else ++z.artifact_clusters;
     }
     std::vector<Index> nearest(nv);
     for (bool negative_left = true; negative_left;) {

@@ -58,8 +58,8 @@ struct ZeroSet {
     int total_index = 0;  //!< sum (w_v - 1) + flips = 2g - 2 exactly on a closed surface
     int total_order = 0;  //!< sum of zero orders (= total_index when no cluster is negative)
     //! Clusters of index <= 0 that hold saddle-count defects (vertices with saddle_order != 0 away
-    //! from any zero: a broken discrete maximum principle, e.g. negative weights), and positive
-    //! ones the negatives merged into them cancelled.
+    //! from any zero: a broken discrete maximum principle, e.g. negative weights; not the
+    //! flat_clusters below), and positive ones the negatives merged into them cancelled.
     Index artifact_clusters = 0;
     //! Negative clusters merged into their nearest positive one (again if that one turned
     //! negative), so total_order = total_index whenever total_index >= 0.
@@ -71,6 +71,15 @@ struct ZeroSet {
     //! Clusters with no saddle: folds of the mesh's piecewise linear image only (flips and
     //! windings != 1 where the form has no zero), left for regularise_zeros to re-triangulate.
     Index fold_clusters = 0;
+    //! Vertices of the counting triangulation where u is not resolved: the harmonicity residual
+    //! of du there is not small against sum_e w_e |du_e| (the form is rounding noise: a thin
+    //! fin, a spike, a neck far from every handle), so the signs of du and the saddles counted
+    //! there are noise. Each one's saddles, with those of its one-ring and of the unresolved
+    //! vertices it touches, make one group, so the noise cancels inside one cluster.
+    Index unresolved_vertices = 0;
+    //! Clusters of index 0 whose saddles all lie in such a region: noise that cancelled, not an
+    //! artifact. Left for regularise_zeros like fold clusters.
+    Index flat_clusters = 0;
     bool intrinsic = false;  //!< saddles counted on the intrinsic Delaunay triangulation
 };
 
@@ -97,7 +106,9 @@ struct ZeroOptions {
 //! hands its m_v to that neighbour. The mesh's own image-winding bookkeeping (each corner's
 //! principal image angle; sum (w_v - 1) + flips = 2g - 2 exactly) is kept for the folds of the
 //! piecewise linear image, which join the clusters so that regularise_zeros removes them. A
-//! zero sits at its cluster's saddle vertex (highest m_v, then smallest id). Deterministic.
+//! zero sits at its cluster's saddle vertex (highest m_v, then smallest id). Where du is rounding
+//! noise (ZeroSet::unresolved_vertices) the saddles of each such region group together, so
+//! their noise cancels in one cluster instead of making artifacts. Deterministic.
 //! \pre closed mesh, tau has #E finite values.  \throw InvalidInput.
 ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options = {});
 
