@@ -285,8 +285,9 @@ void BM_kernel_homology_basis(benchmark::State& state) {
 
 void BM_kernel_hodge_star(benchmark::State& state) {
     with_inputs(state, conformal_inputs, [&](const ConformalInputs& in) {
+        const Eigen::SparseMatrix<double> eta = in.intrinsic.forms.sparseView();  // the pipeline keeps it so
         const auto star = [&] {
-            return kernels::hodge_star(in.w, in.omega,
+            return kernels::hodge_star(in.w, eta, in.omega,
                                        kernels::wedge_matrix(*in.mesh, in.homology.closed_forms));
         };
         {  // |det A| = 1, B = omega^T W omega (recomputed with Eigen), A C^T = B

@@ -213,6 +213,8 @@ void end_solves(ConformalWork& work) {
     work.potential_blocks.clear();
     // The potential corrects the forms on both triangulations (it lives on the shared vertices);
     // on the intrinsic one its carried forms become the harmonic ones in place.
+    work.laplace_closed_forms =
+        (work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms()).sparseView();
     r.harmonic = kernels::plus_gradient(surface.E, work.closed_forms(), potential);
     Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
     if (work.intrinsic_laplacian()) kernels::add_gradient(laplace_mesh.E, potential, laplace_omega);
@@ -234,8 +236,9 @@ void hodge_star(ConformalWork& work) {
     ConformalResult& r = work.result;
     StageClock clock(r.timings_ms);
     const Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
-    side_by_side([&] { r.star = kernels::hodge_star(work.weights, laplace_omega, work.wedge); },
+    side_by_side([&] { r.star = kernels::hodge_star(work.weights, work.laplace_closed_forms, laplace_omega, work.wedge); },
                  [&] { r.closedness_max = kernels::closedness_error(*r.surface, r.harmonic); });
+    work.laplace_closed_forms = {};
     clock.lap("hodge_star");  // and the closedness check beside it
     r.basis = kernels::holomorphic_basis(r.star);
     clock.lap("holomorphic_basis");

@@ -158,8 +158,11 @@ TEST(HolomorphicBasis, NormalisedOnCanonicalCycles) {
 TEST(HodgeStar, RejectsSingularWedge) {
     const Eigen::MatrixXd omega = Eigen::MatrixXd::Random(10, 2);
     const std::vector<double> w(10, 1.0);
-    EXPECT_THROW(hodge_star(w, omega, Eigen::MatrixXd::Zero(2, 2)), SolverFailure);
-    EXPECT_THROW(hodge_star(w, omega, Eigen::MatrixXd::Zero(3, 3)), InvalidInput);
+    const Eigen::SparseMatrix<double> eta = omega.sparseView();
+    EXPECT_THROW(hodge_star(w, eta, omega, Eigen::MatrixXd::Zero(2, 2)), SolverFailure);
+    EXPECT_THROW(hodge_star(w, eta, omega, Eigen::MatrixXd::Zero(3, 3)), InvalidInput);
+    EXPECT_THROW(hodge_star(w, Eigen::MatrixXd(omega.topRows(9)).sparseView(), omega, Eigen::MatrixXd::Identity(2, 2)),
+                 InvalidInput);
 }
 
 TEST(Involution, EvenFormsOnADoubleCover) {

@@ -102,6 +102,9 @@ struct ConformalWork {
     kernels::LaplacianMatrix laplacian;
     std::shared_ptr<const kernels::CholeskyFactor> factor;
     std::vector<Eigen::MatrixXd> potential_blocks;  //!< one per solve block, each written by its own task
+    //! The closed forms on laplace_mesh()'s edges, sparse (the intrinsic ones become harmonic in
+    //! place): what the Hodge star's inner products need.
+    Eigen::SparseMatrix<double> laplace_closed_forms;
     std::chrono::steady_clock::time_point solves_started;
 
     bool intrinsic_laplacian() const { return options.laplacian == LaplacianKind::IntrinsicDelaunay; }
