@@ -9,8 +9,11 @@
 
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/kernels/double_cover.h"
+#include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/intrinsic_delaunay.h"
 #include "holoflow/kernels/shapes.h"
+#include "support/test_support.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -153,6 +156,27 @@ TEST(HolomorphicBasis, NormalisedOnCanonicalCycles) {
     EXPECT_LT((bp - b.period_matrix).norm(), kPeriodTol * b.period_matrix.norm());
     EXPECT_GT(b.period_im_min_eigenvalue, 0);
     EXPECT_LT(b.period_symmetry_error, 0.05);
+}
+
+// B from the sparse closed forms (eta^T W omega) is the Gram matrix omega^T W omega of the
+// harmonic forms: <d f, omega> = 0 for co-closed omega. On the intrinsic Delaunay triangulation
+// the pipeline solves on, with its weights, for a small and a high genus.
+TEST(HodgeStar, InnerProductsFromTheClosedFormsAreTheGramMatrix) {
+    for (const char* name : {"eight", "cheese"}) {
+        SCOPED_TRACE(name);
+        const auto mesh = test::corpus_mesh(name);
+        const engine::ConformalResult c = engine::compute_conformal(*mesh);
+        ASSERT_NE(c.intrinsic, nullptr);
+        const IntrinsicTriangulation& t = *c.intrinsic;
+        const Eigen::MatrixXd eta = carry_forms(t, c.homology.closed_forms), omega = carry_forms(t, c.harmonic);
+        const std::vector<double> w = cotan_weights_from_lengths(t.mesh.halfedge_edge, t.edge_length, t.mesh.n_edges());
+        const Eigen::Map<const Eigen::VectorXd> weight(w.data(), static_cast<Eigen::Index>(w.size()));
+        const Eigen::MatrixXd gram = omega.transpose() * weight.asDiagonal() * omega;
+        const HodgeStar star = hodge_star(w, eta.sparseView(), omega, c.star.wedge);
+        EXPECT_LT((star.inner - gram).norm(), 1e-12 * gram.norm());
+        EXPECT_EQ(star.inner, Eigen::MatrixXd(star.inner.transpose()));
+        EXPECT_LT((star.star - c.star.star).norm(), 1e-9 * c.star.star.norm());  // the pipeline's, from its own data
+    }
 }
 
 TEST(HodgeStar, RejectsSingularWedge) {
