@@ -132,6 +132,7 @@ const SegmentationInputs& segmentation_inputs(int level) {
     // Turbine is closed with genus > 0: no tips, no cover, the form lives on the input itself.
     if (r.conformal.double_covered || !r.tips.empty())
         throw std::runtime_error("expected a closed surface of genus > 0");
+    in->mesh = r.traced_input;  // refined where zero fans failed (turbine loop 0): the form's surface
     in->genus = r.input_genus;
     in->homology = std::move(r.conformal.homology);
     in->tau = std::move(r.conformal.tau);
