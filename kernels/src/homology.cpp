@@ -385,7 +385,7 @@ Eigen::MatrixXi symplectic_basis(const Eigen::MatrixXi& J) {
         // Make the rest orthogonal to b too: B_k -= omega(B_k, b) a keeps omega(a, B_k) = 0.
         const VecL v = JL * B.col(p + 1);
         for (Eigen::Index k = p + 2; k < n; ++k) B.col(k) -= v.dot(B.col(k)) * B.col(p);
-        if (B.cwiseAbs().maxCoeff() >= kLimit)
+        if (B.rightCols(n - p).cwiseAbs().maxCoeff() >= kLimit)  // columns before p are final
             throw SolverFailure("symplectic_basis: coefficients overflow 32 bits");
     }
     MatL P(n, n);
@@ -396,8 +396,31 @@ Eigen::MatrixXi symplectic_basis(const Eigen::MatrixXi& J) {
     MatL standard = MatL::Zero(n, n);
     standard.topRightCorner(g, g).setIdentity();
     standard.bottomLeftCorner(g, g) = -MatL::Identity(g, g);
-    if (P.transpose() * JL * P != standard)
-        throw SolverFailure("symplectic_basis: result is not in standard form");
+    // P^T J P = standard, checked on fixed pseudo-random vectors (Freivalds) in wrapping 64-bit
+    // arithmetic: exact equality survives the wrap, a wrong P fails a vector with probability
+    // about 1 - 2^-64, and three matrix-vector products replace the n^3 integer product (a
+    // fifth of the basis' time at 2g = 938).
+    using VecU = Eigen::Matrix<std::uint64_t, Eigen::Dynamic, 1>;
+    const auto times = [n](const MatL& M, const VecU& x, bool transposed) {
+        VecU y = VecU::Zero(n);
+        for (Eigen::Index j = 0; j < n; ++j)
+            for (Eigen::Index i = 0; i < n; ++i) {
+                const auto m = static_cast<std::uint64_t>(M(i, j));
+                if (transposed) y(j) += m * x(i);
+                else y(i) += m * x(j);
+            }
+        return y;
+    };
+    std::uint64_t state = 0x9e3779b97f4a7c15ULL;
+    for (int trial = 0; trial < 2; ++trial) {
+        VecU x(n);
+        for (Eigen::Index i = 0; i < n; ++i) {
+            state = state * 6364136223846793005ULL + 1442695040888963407ULL;  // deterministic LCG
+            x(i) = state;
+        }
+        if (times(P, times(JL, times(P, x, false), false), true) != times(standard, x, false))
+            throw SolverFailure("symplectic_basis: result is not in standard form");
+    }
     return P.cast<int>();
 }
 
