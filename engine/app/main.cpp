@@ -1,8 +1,10 @@
 // holoflow command line: one executable, one subcommand per job. Errors go to stderr as
 // `error: <kind>: <detail>` with a distinct exit status per kind (README "Exit status").
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <new>
@@ -125,11 +127,22 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
     return 0;
 }
 
+// Memory the process may use: physical memory, or the cgroup's limit where that is lower.
+std::size_t available_memory_bytes() {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    std::size_t bytes = pages > 0 && page > 0 ? static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) : 0;
+    std::ifstream cgroup("/sys/fs/cgroup/memory.max");
+    std::size_t limit = 0;
+    if (cgroup >> limit && limit > 0 && (bytes == 0 || limit < bytes)) bytes = limit;  // "max" reads as no number
+    return bytes;
+}
+
 // Options shared by `segment` and `batch`.
 struct SegmentSettings {
     LoadArgs load;
     std::string mode = "layout", laplacian = "intrinsic";
     std::size_t max_memory_mb = 0;
+    CLI::Option* max_memory = nullptr;  // not given: a share of the machine's memory
     int max_tips = 8;
     double hole_size = 0.02;
     int fan_refinements = 3;
@@ -141,8 +154,9 @@ struct SegmentSettings {
         command.add_option("--laplacian", laplacian, "cotan weights: intrinsic Delaunay or the mesh itself")
             ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
         load.add_to(command);
-        command.add_option("--max-memory", max_memory_mb,
-                           "refuse a model whose solver would need more MiB than this (0: no limit)");
+        max_memory = command.add_option("--max-memory", max_memory_mb,
+                                        "refuse a model whose conformal stage would need more MiB than this (0: no "
+                                        "limit; default: 3/4 of the memory over the models computed at once)");
         command.add_option("--max-tips", max_tips, "most tips detected automatically")
             ->check(CLI::Range(2, 64));
         command.add_option("--hole-size", hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
@@ -152,12 +166,15 @@ struct SegmentSettings {
                            "solve (0: none)")
             ->check(CLI::Range(0, 8));
     }
-    graphs::SegmentationGraphOptions graph_options() const {
+    //! `concurrent`: models computed at once (each gets its share of the default memory limit).
+    graphs::SegmentationGraphOptions graph_options(std::size_t concurrent) const {
         graphs::SegmentationGraphOptions o;
         o.load = load.options();
         o.segment.conformal.laplacian =
             laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic : engine::LaplacianKind::IntrinsicDelaunay;
-        o.segment.conformal.max_solver_bytes = max_memory_mb << 20;
+        o.segment.conformal.max_solver_bytes = max_memory != nullptr && max_memory->count() == 0
+                                                   ? available_memory_bytes() / 4 * 3 / std::max<std::size_t>(concurrent, 1)
+                                                   : max_memory_mb << 20;
         o.segment.mode = mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
         o.segment.max_tips = max_tips;
         o.segment.hole_size = hole_size;
@@ -184,7 +201,7 @@ struct SegmentArgs {
 int run_segment(const SegmentArgs& args) {
     const std::filesystem::path folder(args.out_dir);
     engine::prepare_output_folder(folder);  // fail before the work, not after
-    graphs::SegmentationGraphOptions options = args.settings.graph_options();
+    graphs::SegmentationGraphOptions options = args.settings.graph_options(1);
     options.segment.tips = args.tips;
     options.max_in_flight = 1;
     engine::ModelTask task;
@@ -227,8 +244,9 @@ int run_batch(const BatchArgs& args) {
     const unsigned threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
-    graphs::SegmentationGraphOptions options = args.settings.graph_options();
-    options.max_in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * threads;
+    const std::size_t in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * threads;
+    graphs::SegmentationGraphOptions options = args.settings.graph_options(std::min<std::size_t>(threads, in_flight));
+    options.max_in_flight = in_flight;
     options.timeout = std::chrono::milliseconds(static_cast<long long>(args.timeout_s * 1000));
     engine::FactorizationCache cache;
     const graphs::SegmentationGraph graph(options, &cache);

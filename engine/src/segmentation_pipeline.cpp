@@ -324,12 +324,21 @@ void fans(SegmentationWork& work) {
     };
     const int rounds = work.options.fan_refinement_rounds;
     const Index max_faces = std::max(kMaxFanRefinementGrowth * r.traced_input->n_faces(), kFanRefinementFaces);
+    // A try's memory limit leaves room for the forms the model holds meanwhile.
+    const auto try_options = [&] {
+        SegmentOptions o = work.options;
+        std::size_t& limit = o.conformal.max_solver_bytes;
+        const auto held = static_cast<std::size_t>(8 * (r.conformal.harmonic.size() + r.conformal.homology.closed_forms.size()) +
+                                                   16 * r.conformal.tau.size());
+        if (limit > 0) limit = limit > held ? limit - held : 1;
+        return o;
+    };
     if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
-        keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), work.options, max_faces));
+        keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces));
     for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
         MeshView bisected = bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular));
         if (bisected.n_faces() == r.traced_input->n_faces()) break;  // no edge split: the same solve again
-        if (!keep_if_fewer_fail(on_refined_surface(std::move(bisected), work.options, max_faces))) break;
+        if (!keep_if_fewer_fail(on_refined_surface(std::move(bisected), try_options(), max_faces))) break;
     }
     const MeshView& traced = *r.traced_input;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;

@@ -141,6 +141,33 @@ TEST(Conformal, OpenSurfaceBoundaryIsHorizontal) {
     }
 }
 
+// The memory limit counts the dense 2g-column forms, not only the factor, and refuses before
+// the homology allocates them: a limit below the forms of cheese (genus 133) leaves no closed
+// form allocated; one above the forms but below forms plus factor refuses at the factorisation.
+TEST(Conformal, MemoryLimitRefusesBeforeTheFormsAreAllocated) {
+    const auto cheese = test::corpus_mesh("cheese");
+    ConformalOptions options;
+    options.max_solver_bytes = 1;
+    ConformalWork work = conformal_stage::prepare(cheese, options);
+    conformal_stage::laplacian(work);
+    EXPECT_THROW(conformal_stage::homology_and_factorise(work), ResourceLimit);
+    EXPECT_EQ(work.result.homology.closed_forms.size(), 0);
+
+    const auto forms_bytes = static_cast<std::size_t>(8 * 266 * (3 * cheese->n_edges() + 3 * cheese->n_vertices()));
+    options.max_solver_bytes = forms_bytes + 1024;  // the forms fit, the factor does not
+    ConformalWork fits = conformal_stage::prepare(cheese, options);
+    conformal_stage::laplacian(fits);
+    try {
+        conformal_stage::homology_and_factorise(fits);
+        FAIL() << "the factor must not fit";
+    } catch (const ResourceLimit& e) {
+        EXPECT_NE(std::string(e.what()).find("266 forms"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(fits.factor, nullptr);
+    options.max_solver_bytes = 0;  // no limit
+    EXPECT_NO_THROW(compute_conformal(*cheese, options));
+}
+
 TEST(Conformal, SameBitsForOneAndTwoThreads) {
     const auto mesh = test::corpus_mesh("elephant");
     auto run = [&](int threads) {

@@ -51,8 +51,9 @@ struct ConformalOptions {
     //! Closed input only: a cohomology basis (#E x 2g closed forms) to use instead of the
     //! tree-cotree one, e.g. carried from a coarser mesh so that period matrices compare.
     std::optional<Eigen::MatrixXd> closed_forms;
-    //! Refuse (ResourceLimit) before factorizing when the solver's estimated memory exceeds this
-    //! many bytes; 0: no limit.
+    //! Refuse (ResourceLimit) when the conformal stage's estimated memory (the factor and the
+    //! dense 2g-column forms) exceeds this many bytes: checked before the homology allocates the
+    //! forms and again before factorizing; 0: no limit.
     std::size_t max_solver_bytes = 0;
 };
 
