@@ -110,7 +110,7 @@ std::vector<int> count_saddles(const MeshView& t, Eigen::Ref<const Eigen::Vector
     return m;
 }
 
-// Vertices of the counting triangulation t where u is not resolved (see ZeroSet::unresolved):
+// Vertices of the counting triangulation t where u is not resolved (ZeroSet::unresolved_vertices):
 // the form is harmonic for t's cotan weights, so sum_e w_e du_e vanishes at every vertex up to
 // rounding, unless the du themselves are rounding noise (the form numerically zero: a thin fin,
 // a spike, a neck far from any handle); then their signs, so the saddles counted there, mean

@@ -273,5 +273,23 @@ TEST(Cli, FanRefinementsCanBeTurnedOff) {
     EXPECT_LT(b["faces"].get<int>(), a["faces"].get<int>());
 }
 
+// --max-memory refuses a model over it (resource_limit, exit 7, the estimate and the form count
+// named) and writes nothing; 0 lifts the limit, and without the option the default share of the
+// machine's memory lets an ordinary model through.
+TEST(Cli, MaxMemoryRefusesAModelOverIt) {
+    test::TempDir dir;
+    const std::string mesh = test::corpus("eight.off");
+    const auto refused = test::run_cli("segment '" + test::corpus("cheese.off") + "' -o '" + (dir.path() / "a").string() +
+                                       "' --max-memory 1");  // genus 133: about 214 MiB of forms
+    EXPECT_EQ(refused.status, 7) << refused.err;
+    EXPECT_NE(refused.err.find("error: resource_limit: "), std::string::npos) << refused.err;
+    EXPECT_NE(refused.err.find("266 forms"), std::string::npos) << refused.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.path() / "a" / "segmentation.json"));
+    for (const char* limit : {" --max-memory 0", ""}) {
+        const auto r = test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "b").string() + "'" + limit);
+        EXPECT_EQ(r.status, 0) << limit << ": " << r.err;
+    }
+}
+
 }  // namespace
 }  // namespace holoflow
