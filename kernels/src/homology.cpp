@@ -396,10 +396,10 @@ Eigen::MatrixXi symplectic_basis(const Eigen::MatrixXi& J) {
     MatL standard = MatL::Zero(n, n);
     standard.topRightCorner(g, g).setIdentity();
     standard.bottomLeftCorner(g, g) = -MatL::Identity(g, g);
-    // P^T J P = standard, checked on fixed pseudo-random vectors (Freivalds) in wrapping 64-bit
-    // arithmetic: exact equality survives the wrap, a wrong P fails a vector with probability
-    // about 1 - 2^-64, and three matrix-vector products replace the n^3 integer product (a
-    // fifth of the basis' time at 2g = 938).
+    // P^T J P = standard, checked on two fixed pseudo-random vectors (Freivalds) in wrapping
+    // 64-bit arithmetic: exact equality survives the wrap, and a wrong P passes only if its
+    // error vanishes modulo 2^64 on both; three matrix-vector products replace the n^3 integer
+    // product (a fifth of the basis' time at 2g = 938).
     using VecU = Eigen::Matrix<std::uint64_t, Eigen::Dynamic, 1>;
     const auto times = [n](const MatL& M, const VecU& x, bool transposed) {
         VecU y = VecU::Zero(n);
