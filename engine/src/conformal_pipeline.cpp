@@ -287,6 +287,7 @@ void integrate(ConformalWork& work) {
         r.intrinsic = std::make_shared<const kernels::IntrinsicTriangulation>(std::move(work.intrinsic));
     }
     work.intrinsic = {};
+    r.laplace_weights = std::move(work.weights);
     work.weights = {};
     clock.lap("integration");
 

@@ -194,8 +194,10 @@ void locate_zeros(SegmentationWork& work) {
     kernels::ZeroOptions zero_options;
     zero_options.triangulation = r.conformal.intrinsic.get();
     zero_options.intrinsic_delaunay = zero_options.triangulation != nullptr;
+    zero_options.weights = r.conformal.laplace_weights;
     r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau, zero_options);
-    r.conformal.intrinsic.reset();  // nothing after the zeros needs it
+    r.conformal.intrinsic.reset();  // nothing after the zeros needs them
+    r.conformal.laplace_weights = {};
     if (!r.is_torus()) work.regions = zero_regions(r);
 }
 

@@ -110,20 +110,31 @@ std::vector<int> count_saddles(const MeshView& t, Eigen::Ref<const Eigen::Vector
     return m;
 }
 
-// Vertices of the counting triangulation t where u is not resolved (ZeroSet::unresolved_vertices):
-// the form is harmonic for t's cotan weights, so sum_e w_e du_e vanishes at every vertex up to
+// Where u is not resolved on the counting triangulation t (ZeroSet::unresolved_vertices): the
+// form is harmonic for t's cotan weights, so sum_e w_e du_e vanishes at every vertex up to
 // rounding, unless the du themselves are rounding noise (the form numerically zero: a thin fin,
 // a spike, a neck far from any handle); then their signs, so the saddles counted there, mean
-// nothing. None where t's weights cannot be computed.
-std::vector<char> unresolved_vertices(const MeshView& t, std::span<const double> edge_length,
-                                      Eigen::Ref<const Eigen::VectorXd> du) {
-    std::vector<double> weight;
-    try {
-        weight = edge_length.empty() ? cotan_weights(t)
-                                     : cotan_weights_from_lengths(t.halfedge_edge, edge_length, t.n_edges());
-    } catch (const InvalidInput&) {
-        return {};
+// nothing. `region` per vertex: the unresolved vertices with their one-ring, joined where they
+// touch, numbered by smallest vertex; -1 elsewhere (empty where none is unresolved, or t's
+// weights are neither given nor computable).
+struct UnresolvedRegions {
+    Index vertices = 0;
+    std::vector<Index> region;
+};
+
+UnresolvedRegions unresolved_regions(const MeshView& t, std::span<const double> edge_length,
+                                     Eigen::Ref<const Eigen::VectorXd> du, std::span<const double> given_weights) {
+    std::vector<double> computed;
+    if (given_weights.empty()) {
+        try {
+            computed = edge_length.empty() ? cotan_weights(t)
+                                           : cotan_weights_from_lengths(t.halfedge_edge, edge_length, t.n_edges());
+        } catch (const InvalidInput&) {
+            return {};
+        }
     }
+    const std::span<const double> weight = given_weights.empty() ? std::span<const double>(computed) : given_weights;
+    HOLOFLOW_REQUIRE(static_cast<Index>(weight.size()) == t.n_edges(), "cotan weights must have one value per edge");
     std::vector<double> residual(t.n_vertices(), 0.0), scale(t.n_vertices(), 0.0);
     for (Index h = 0; h < t.n_halfedges(); ++h) {
         const Index e = t.halfedge_edge[h], v = t.tail(h);
@@ -131,16 +142,13 @@ std::vector<char> unresolved_vertices(const MeshView& t, std::span<const double>
         residual[v] += flow;
         scale[v] += std::abs(flow);
     }
+    UnresolvedRegions out;
     std::vector<char> unresolved(t.n_vertices(), 0);
-    for (Index v = 0; v < t.n_vertices(); ++v)
+    for (Index v = 0; v < t.n_vertices(); ++v) {
         unresolved[v] = !(std::abs(residual[v]) <= kUnresolvedResidual * scale[v]) || scale[v] == 0;
-    return unresolved;
-}
-
-// Per vertex of t its unresolved region (-1: none): the unresolved vertices with their one-ring,
-// joined where they touch, numbered by smallest vertex. Empty where no vertex is unresolved.
-std::vector<Index> flat_regions(const MeshView& t, const std::vector<char>& unresolved) {
-    if (std::find(unresolved.begin(), unresolved.end(), 1) == unresolved.end()) return {};
+        out.vertices += unresolved[v];
+    }
+    if (out.vertices == 0) return out;
     UnionFind regions(t.n_vertices());
     std::vector<char> in_region = unresolved;
     for (Index e = 0; e < t.n_edges(); ++e) {
@@ -149,15 +157,16 @@ std::vector<Index> flat_regions(const MeshView& t, const std::vector<char>& unre
         regions.unite(a, b);
         in_region[a] = in_region[b] = 1;
     }
-    std::vector<Index> region(t.n_vertices(), -1), number(t.n_vertices(), -1);
+    out.region.assign(t.n_vertices(), -1);
+    std::vector<Index> number(t.n_vertices(), -1);
     Index count = 0;
     for (Index v = 0; v < t.n_vertices(); ++v) {
         if (!in_region[v]) continue;
         Index& n = number[regions.find(v)];
         if (n < 0) n = count++;
-        region[v] = n;
+        out.region[v] = n;
     }
-    return region;
+    return out;
 }
 
 // Mesh adjacency between special vertices, CSR (mesh edges, plus intrinsic edges between
@@ -183,6 +192,8 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
     HOLOFLOW_REQUIRE(tau.allFinite(), "form has non-finite values");
     HOLOFLOW_REQUIRE(mesh.is_closed(), "zero bookkeeping needs a closed surface");
+    HOLOFLOW_REQUIRE(options.weights.empty() || options.triangulation || !options.intrinsic_delaunay,
+                     "cotan weights need the triangulation they belong to");
     const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
     ZeroSet z;
     count_windings(mesh, tau, z);
@@ -191,8 +202,7 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     // carried exactly through the flips); a mesh it cannot take (zero-area faces) counts on
     // itself. Its edges between two saddles join their groups below.
     std::vector<std::pair<Index, Index>> intrinsic_saddle_edges;
-    std::vector<char> unresolved;
-    std::vector<Index> unresolved_regions;
+    UnresolvedRegions noise;
     {
         Eigen::MatrixXd forms(mesh.n_edges(), 2);
         forms.col(0) = tau.real();
@@ -212,19 +222,18 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
                         intrinsic_saddle_edges.emplace_back(a, b);
                 }
                 z.intrinsic = true;
-                unresolved = unresolved_vertices(t.mesh, t.edge_length, carried.col(0));
-                unresolved_regions = flat_regions(t.mesh, unresolved);
+                noise = unresolved_regions(t.mesh, t.edge_length, carried.col(0), options.weights);
             } catch (const InvalidInput&) {
                 if (options.triangulation) throw;  // a wrong triangulation is the caller's bug
             }
         }
         if (!z.intrinsic) {
             z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));
-            unresolved = unresolved_vertices(mesh, {}, forms.col(0));
-            unresolved_regions = flat_regions(mesh, unresolved);
+            noise = unresolved_regions(mesh, {}, forms.col(0), options.weights);
         }
     }
-    z.unresolved_vertices = static_cast<Index>(std::count(unresolved.begin(), unresolved.end(), 1));
+    z.unresolved_vertices = noise.vertices;
+    const auto in_unresolved_region = [&](Index v) { return !noise.region.empty() && noise.region[v] >= 0; };
 
     // Special vertices and their adjacency.
     std::vector<char> special(nv, 0);
@@ -251,8 +260,8 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     {
         std::vector<Index> first_saddle(nv, -1);
         for (Index v = 0; v < nv; ++v) {
-            if (z.saddle_order[v] == 0 || unresolved_regions.empty() || unresolved_regions[v] < 0) continue;
-            Index& first = first_saddle[unresolved_regions[v]];
+            if (z.saddle_order[v] == 0 || !in_unresolved_region(v)) continue;
+            Index& first = first_saddle[noise.region[v]];
             if (first < 0) first = v;
             else groups.unite(first, v);
         }
@@ -304,7 +313,7 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
     };
     const auto only_unresolved_saddles = [&](const ZeroCluster& cluster) {
         return std::all_of(cluster.vertices.begin(), cluster.vertices.end(), [&](Index v) {
-            return z.saddle_order[v] == 0 || (!unresolved_regions.empty() && unresolved_regions[v] >= 0);
+            return z.saddle_order[v] == 0 || in_unresolved_region(v);
         });
     };
     std::vector<char> was_positive(z.clusters.size(), 0);

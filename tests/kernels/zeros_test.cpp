@@ -81,6 +81,35 @@ TEST(Zeros, GivenTriangulationMatchesRecomputedOne) {
     EXPECT_THROW(find_zeros(*c.surface, c.tau, wrong), InvalidInput);
 }
 
+// The conformal stage's cotan weights, given, are what the unresolved-vertex test computes
+// itself: the same zero set on the stretched femur (which has unresolved vertices). Weights
+// without their triangulation, or of the wrong size, are refused.
+TEST(Zeros, GivenWeightsMatchRecomputedOnes) {
+    MeshView femur = *test::corpus_mesh("femur");
+    femur.V.col(1) *= 2.5;
+    femur.V.col(2) *= 0.6;
+    const engine::ConformalResult c = engine::compute_conformal(femur);
+    ASSERT_NE(c.intrinsic, nullptr);
+    ASSERT_EQ(static_cast<Index>(c.laplace_weights.size()), c.intrinsic->mesh.n_edges());
+    ZeroOptions own, given;
+    own.triangulation = given.triangulation = c.intrinsic.get();
+    given.weights = c.laplace_weights;
+    const ZeroSet a = find_zeros(*c.surface, c.tau, own), b = find_zeros(*c.surface, c.tau, given);
+    EXPECT_GT(a.unresolved_vertices, 0);
+    EXPECT_EQ(b.unresolved_vertices, a.unresolved_vertices);
+    EXPECT_EQ(b.flat_clusters, a.flat_clusters);
+    EXPECT_EQ(b.artifact_clusters, a.artifact_clusters);
+    EXPECT_EQ(b.saddle_order, a.saddle_order);
+    ASSERT_EQ(b.zeros.size(), a.zeros.size());
+    for (std::size_t i = 0; i < a.zeros.size(); ++i) EXPECT_EQ(b.zeros[i].vertex, a.zeros[i].vertex);
+    ZeroOptions loose;
+    loose.weights = c.laplace_weights;  // no triangulation to belong to
+    EXPECT_THROW(find_zeros(*c.surface, c.tau, loose), InvalidInput);
+    const std::vector<double> short_weights(c.laplace_weights.begin(), c.laplace_weights.end() - 1);
+    given.weights = short_weights;
+    EXPECT_THROW(find_zeros(*c.surface, c.tau, given), InvalidInput);
+}
+
 TEST(Zeros, ProceduralSurfacesOfHigherGenus) {
     for (int genus : {2, 3}) {
         SCOPED_TRACE(genus);

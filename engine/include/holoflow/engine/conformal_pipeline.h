@@ -82,6 +82,9 @@ struct ConformalResult {
     //! The intrinsic Delaunay triangulation of `surface` the Laplacian was built on (without
     //! forms; null with LaplacianKind::Extrinsic): zero finding replays its flips on tau.
     std::shared_ptr<const kernels::IntrinsicTriangulation> intrinsic;
+    //! The Laplacian's cotan weights (on `intrinsic`'s edges, or the surface's with the extrinsic
+    //! Laplacian): zero finding's harmonicity test reuses them.
+    std::vector<double> laplace_weights;
     Index negative_weights = 0;              //!< cotan weights < 0 in the Laplacian used
     StageTimes timings_ms;
 };

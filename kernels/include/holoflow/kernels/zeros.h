@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -93,6 +94,10 @@ struct ZeroOptions {
     //! That triangulation when the caller has it already (the conformal stage's, of this very
     //! mesh): its flips are replayed on tau instead of redone (carry_forms, the same bits).
     const IntrinsicTriangulation* triangulation = nullptr;
+    //! The cotan weights of the counting triangulation (`triangulation`'s, or the mesh's with
+    //! intrinsic_delaunay false) when the caller has them, the Laplacian's: the unresolved-vertex
+    //! test reuses them instead of recomputing. Empty: computed here.
+    std::span<const double> weights;
 };
 
 //! \brief Zero points of the closed complex 1-form `tau` (one value per edge, along
