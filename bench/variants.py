@@ -27,21 +27,18 @@ def read_mesh(path):
     """(vertices, faces) of an ASCII OFF or OBJ file; None for anything else."""
     vertices, faces = [], []
     if path.endswith('.off'):
-        tokens = []
         with open(path, errors='replace') as f:
-            for line in f:
-                tokens += line.split('#')[0].split()
-        if not tokens or tokens[0] != 'OFF':
+            lines = [l.split('#')[0].split() for l in f]
+        lines = [l for l in lines if l]
+        if not lines or lines[0][0] != 'OFF':
             return None  # COFF, NOFF, binary: left out
-        nv, nf = int(tokens[1]), int(tokens[2])
-        at = 4
-        for _ in range(nv):
-            vertices.append([float(t) for t in tokens[at:at + 3]])
-            at += 3
-        for _ in range(nf):
-            n = int(tokens[at])
-            faces.append([int(t) for t in tokens[at + 1:at + 1 + n]])
-            at += 1 + n
+        header = lines[0][1:] or lines[1]  # counts on the OFF line or the next
+        body = lines[1:] if lines[0][1:] else lines[2:]
+        nv, nf = int(header[0]), int(header[1])
+        vertices = [[float(t) for t in line[:3]] for line in body[:nv]]
+        for line in body[nv:nv + nf]:
+            n = int(line[0])
+            faces.append([int(t) for t in line[1:1 + n]])  # colour values after them are dropped
         return vertices, faces
     if path.endswith('.obj'):
         with open(path, errors='replace') as f:

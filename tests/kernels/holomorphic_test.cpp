@@ -9,7 +9,6 @@
 
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/kernels/double_cover.h"
-#include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/intrinsic_delaunay.h"
 #include "holoflow/kernels/shapes.h"
@@ -169,7 +168,8 @@ TEST(HodgeStar, InnerProductsFromTheClosedFormsAreTheGramMatrix) {
         ASSERT_NE(c.intrinsic, nullptr);
         const IntrinsicTriangulation& t = *c.intrinsic;
         const Eigen::MatrixXd eta = carry_forms(t, c.homology.closed_forms), omega = carry_forms(t, c.harmonic);
-        const std::vector<double> w = cotan_weights_from_lengths(t.mesh.halfedge_edge, t.edge_length, t.mesh.n_edges());
+        const std::vector<double>& w = c.laplace_weights;  // the Laplacian's, on t's edges
+        ASSERT_EQ(static_cast<Index>(w.size()), t.mesh.n_edges());
         const Eigen::Map<const Eigen::VectorXd> weight(w.data(), static_cast<Eigen::Index>(w.size()));
         const Eigen::MatrixXd gram = omega.transpose() * weight.asDiagonal() * omega;
         const HodgeStar star = hodge_star(w, eta.sparseView(), omega, c.star.wedge);
