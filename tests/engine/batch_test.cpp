@@ -142,11 +142,12 @@ TEST(BatchCommand, BadFilesFailAloneAndThreadCountsAgree) {
 
 TEST(BatchCommand, KilledRunResumesToTheSameSummary) {
     const TempDir dir;
-    // Enough work that the kill lands mid-run: copies of one mid-sized model plus the list.
+    // Enough work that the kill (within milliseconds of the second result) lands mid-run: copies
+    // of one mid-sized model (femur, 50 ms each; the test is the slowest under TSan) after the list.
     std::string list = slurp(write_batch_list(dir));
     for (int i = 0; i < 6; ++i) {
-        fs::copy_file(corpus("turbine.off"), dir.path() / ("turbine" + std::to_string(i) + ".off"));
-        list += "turbine" + std::to_string(i) + ".off\n";
+        fs::copy_file(corpus("femur.off"), dir.path() / ("femur" + std::to_string(i) + ".off"));
+        list += "femur" + std::to_string(i) + ".off\n";
     }
     const std::string list_path = dir.write("long.txt", list);
     const fs::path killed = dir.path() / "killed", whole = dir.path() / "whole";
