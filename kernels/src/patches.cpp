@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <tuple>
 
@@ -152,8 +153,11 @@ PatchEdges patch_edges(const MeshView& mesh, const PatchPoints& points, const st
 // Each point not `fixed` moved to the mean of its neighbours with the edges' `weight` (one sparse
 // SPD solve); fixed rows of x keep their place. lift[i] (empty: all 0) is where the second point
 // of edge i lies seen from the first, minus its own x: a period across a cylinder's seam.
+// `symbolic` keeps the analysis of the pattern (edges and fixed points) for the next call: a try
+// with other weights only refactors.
 bool harmonic_inside(const PatchEdges& edges, std::span<const double> weight, std::span<const Complex> lift,
-                     const std::vector<char>& fixed, Eigen::MatrixXd& x) {
+                     const std::vector<char>& fixed, Eigen::MatrixXd& x,
+                     std::shared_ptr<const CholeskySymbolic>& symbolic) {
     const Index n = static_cast<Index>(x.rows());
     std::vector<Index> pinned;
     for (Index q = 0; q < n; ++q)
@@ -179,7 +183,8 @@ bool harmonic_inside(const PatchEdges& edges, std::span<const double> weight, st
     }
     const LaplacianMatrix L = assemble_laplacian(n, E, weight, std::move(pinned));
     try {
-        x = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L)->solve(b);
+        if (!symbolic || !symbolic->matches(L)) symbolic = CholeskySymbolic::analyse(L);
+        x = CholeskyFactor::factorize(symbolic, L)->solve(b);
     } catch (const SolverFailure&) {
         return false;
     }
@@ -236,9 +241,10 @@ Index embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Uni
     const Index m = static_cast<Index>(loop.size());
     const auto lay_out_inside = [&](const Eigen::MatrixXd& x) {
         const PatchEdges edges = patch_edges(mesh, points, faces);
+        std::shared_ptr<const CholeskySymbolic> symbolic;
         return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
             Eigen::MatrixXd y = x;
-            if (!harmonic_inside(edges, weight, {}, is_border, y)) return false;
+            if (!harmonic_inside(edges, weight, {}, is_border, y, symbolic)) return false;
             out.resize(3 * faces.size());
             for (std::size_t i = 0; i < faces.size(); ++i)
                 for (int k = 0; k < 3; ++k) {
@@ -512,11 +518,12 @@ Index embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Unio
         fixed[q] = is_border[q] || !moves[q];
         if (!is_border[q]) form_x(q, 0) = frame[q].real(), form_x(q, 1) = frame[q].imag();
     }
+    std::shared_ptr<const CholeskySymbolic> around_folds, whole;  // the two patterns' analyses
     return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
         Eigen::MatrixXd y = form_x;
-        if (harmonic_inside(edges, weight, lift, fixed, y) && layout(y, out) == 0) return true;
+        if (harmonic_inside(edges, weight, lift, fixed, y, around_folds) && layout(y, out) == 0) return true;
         y = x;
-        if (!harmonic_inside(edges, weight, lift, is_border, y)) return false;
+        if (!harmonic_inside(edges, weight, lift, is_border, y, whole)) return false;
         layout(y, out);
         return true;
     });
