@@ -14,6 +14,18 @@ jobs="$(nproc)"
 # long as at -O2 -g (kernels/src/holomorphic.cpp under ASan: 105 s -> 50 s on one core).
 sanitizer_build_flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG")
 
+# Ninja keeps both cores busy across target boundaries (the Makefile generator waits for each
+# library before compiling what links it: 5m05s -> 4m17s for the Release build).
+# configure DIR ARGS...: cmake -G Ninja, starting DIR afresh if another generator made it.
+configure() {
+  local dir="$1"
+  shift
+  if [ -f "$dir/CMakeCache.txt" ] && ! grep -qx 'CMAKE_GENERATOR:INTERNAL=Ninja' "$dir/CMakeCache.txt"; then
+    rm -rf "$dir/CMakeCache.txt" "$dir/CMakeFiles"
+  fi
+  cmake -G Ninja -S "$here" -B "$dir" "$@"
+}
+
 # Prints how long the named stage took since the previous call, for the CI log.
 stage_clock=$SECONDS
 stage_done() {
@@ -22,7 +34,7 @@ stage_done() {
 }
 
 packages=(
-  cmake g++ make pkg-config
+  cmake g++ make ninja-build pkg-config
   libtbb-dev libeigen3-dev libopenmesh-dev
   libsuitesparse-dev libopenblas0-pthread libopenblas-pthread-dev
   libgtest-dev libgmock-dev libbenchmark-dev
@@ -77,7 +89,7 @@ tsan_stage() {
 
   local targets=(engine_batch_test) t
   for t in "$here"/tests/graphs/*_test.cpp; do targets+=("graphs_$(basename "$t" .cpp)"); done
-  cmake -S "$here" -B "$tsan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON \
+  configure "$tsan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON \
     -DCMAKE_CXX_FLAGS="-fsanitize=thread -fno-omit-frame-pointer" -DHOLOFLOW_BUILD_BENCH=OFF \
     -DTBB_DIR="$tbb/prefix/lib/cmake/TBB"
   cmake --build "$tsan" -j "$jobs" --target "${targets[@]}"
@@ -118,7 +130,7 @@ fetch_tbb_source() {
 }
 
 configure_and_build() {
-  cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release -DHOLOFLOW_BUILD_TESTS=ON \
+  configure "$build" -DCMAKE_BUILD_TYPE=Release -DHOLOFLOW_BUILD_TESTS=ON \
     -DHOLOFLOW_BUILD_BENCH=ON
   cmake --build "$build" -j "$jobs"
 }
@@ -146,7 +158,7 @@ case "${1:-}" in
     # check is recoverable only so that tests/ubsan.supp can let oneTBB's own flow-graph downcast
     # through; halt_on_error keeps every other report fatal.
     asan="$build-asan"
-    cmake -S "$here" -B "$asan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON \
+    configure "$asan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON \
       -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined -fsanitize-recover=vptr" \
       -DHOLOFLOW_BUILD_BENCH=OFF
     cmake --build "$asan" -j "$jobs"

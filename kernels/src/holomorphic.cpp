@@ -62,7 +62,6 @@ HolomorphicBasis holomorphic_basis(const HodgeStar& star) {
     b.canonical = symplectic_basis(intersection);
 
     // Periods of tau_i = omega_i + i *omega_i over loop m are delta_im + i C(i, m).
-    using Complex = std::complex<double>;
     // Over the canonical cycles K: (I + i C) K = K + i C K, in real arithmetic (a quarter of the
     // flops of the complex product).
     const Eigen::MatrixXd K = b.canonical.cast<double>();
