@@ -150,46 +150,57 @@ PatchEdges patch_edges(const MeshView& mesh, const PatchPoints& points, const st
     return out;
 }
 
-// Each point not `fixed` moved to the mean of its neighbours with the edges' `weight` (one sparse
-// SPD solve); fixed rows of x keep their place. lift[i] (empty: all 0) is where the second point
-// of edge i lies seen from the first, minus its own x: a period across a cylinder's seam.
-// `symbolic` keeps the analysis of the pattern (edges and fixed points) for the next call: a try
-// with other weights only refactors.
-bool harmonic_inside(const PatchEdges& edges, std::span<const double> weight, std::span<const Complex> lift,
-                     const std::vector<char>& fixed, Eigen::MatrixXd& x,
-                     std::shared_ptr<const CholeskySymbolic>& symbolic) {
-    const Index n = static_cast<Index>(x.rows());
-    std::vector<Index> pinned;
-    for (Index q = 0; q < n; ++q)
-        if (fixed[q]) pinned.push_back(q);
-    if (static_cast<Index>(pinned.size()) == n) return true;
-    const Index ne = static_cast<Index>(edges.pair.size());
-    EdgeMatrix E(ne, 2);
-    Eigen::MatrixXd b = x;  // fixed rows keep their place; the others sum their fixed neighbours
-    for (Index q = 0; q < n; ++q)
-        if (!fixed[q]) b.row(q).setZero();
-    for (Index i = 0; i < ne; ++i) {
-        const auto [p, q] = edges.pair[i];
-        const double w = weight[i];
-        E(i, 0) = p;
-        E(i, 1) = q;
-        if (!lift.empty()) {  // sum_q w (x_q + lift_pq - x_p) = 0 at p, and lift_qp = -lift_pq
-            const Eigen::RowVector2d d(lift[i].real(), lift[i].imag());
-            if (!fixed[p]) b.row(p) += w * d;
-            if (!fixed[q]) b.row(q) -= w * d;
+// The layout system of one set of fixed points: each point not `fixed` the mean of its
+// neighbours across `edges` (one sparse SPD solve). The Laplacian's pattern (fixed points pinned)
+// and its analysis are made at the first try; a try with other weights refills and refactors it.
+class InsideLayout {
+ public:
+    InsideLayout(const PatchEdges& edges, const std::vector<char>& fixed) : edges_(edges), fixed_(fixed) {}
+
+    //! Moves the free rows of x with the edges' `weight`; fixed rows keep their place. lift[i]
+    //! (empty: all 0) is where the second point of edge i lies seen from the first, minus its own
+    //! x: a period across a cylinder's seam. False if the solver fails.
+    bool solve(std::span<const double> weight, std::span<const Complex> lift, Eigen::MatrixXd& x) {
+        const std::vector<char>& fixed = fixed_;
+        if (std::all_of(fixed.begin(), fixed.end(), [](char f) { return f != 0; })) return true;
+        if (L_.col_start.empty()) {
+            std::vector<Index> pinned;
+            for (Index q = 0; q < static_cast<Index>(fixed.size()); ++q)
+                if (fixed[q]) pinned.push_back(q);
+            EdgeMatrix E(static_cast<Index>(edges_.pair.size()), 2);
+            for (Index i = 0; i < E.rows(); ++i) E(i, 0) = edges_.pair[i].first, E(i, 1) = edges_.pair[i].second;
+            L_ = laplacian_pattern(static_cast<Index>(fixed.size()), E, std::move(pinned));
         }
-        if (!fixed[p] && fixed[q]) b.row(p) += w * x.row(q);
-        if (!fixed[q] && fixed[p]) b.row(q) += w * x.row(p);
+        Eigen::MatrixXd b = x;  // fixed rows keep their place; the others sum their fixed neighbours
+        for (Index q = 0; q < static_cast<Index>(x.rows()); ++q)
+            if (!fixed[q]) b.row(q).setZero();
+        for (std::size_t i = 0; i < edges_.pair.size(); ++i) {
+            const auto [p, q] = edges_.pair[i];
+            const double w = weight[i];
+            if (!lift.empty()) {  // sum_q w (x_q + lift_pq - x_p) = 0 at p, and lift_qp = -lift_pq
+                const Eigen::RowVector2d d(lift[i].real(), lift[i].imag());
+                if (!fixed[p]) b.row(p) += w * d;
+                if (!fixed[q]) b.row(q) -= w * d;
+            }
+            if (!fixed[p] && fixed[q]) b.row(p) += w * x.row(q);
+            if (!fixed[q] && fixed[p]) b.row(q) += w * x.row(p);
+        }
+        fill_laplacian(L_, weight);
+        try {
+            if (!symbolic_) symbolic_ = CholeskySymbolic::analyse(L_);
+            x = CholeskyFactor::factorize(symbolic_, L_)->solve(b);
+        } catch (const SolverFailure&) {
+            return false;
+        }
+        return true;
     }
-    const LaplacianMatrix L = assemble_laplacian(n, E, weight, std::move(pinned));
-    try {
-        if (!symbolic || !symbolic->matches(L)) symbolic = CholeskySymbolic::analyse(L);
-        x = CholeskyFactor::factorize(symbolic, L)->solve(b);
-    } catch (const SolverFailure&) {
-        return false;
-    }
-    return true;
-}
+
+ private:
+    const PatchEdges& edges_;
+    const std::vector<char>& fixed_;
+    LaplacianMatrix L_;  // empty until the first try
+    std::shared_ptr<const CholeskySymbolic> symbolic_;
+};
 
 // Flipped triangles of a layout (corner k of triangle i at uv[3 i + k]).
 Index count_flips(std::span<const Complex> uv) {
@@ -241,10 +252,10 @@ Index embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Uni
     const Index m = static_cast<Index>(loop.size());
     const auto lay_out_inside = [&](const Eigen::MatrixXd& x) {
         const PatchEdges edges = patch_edges(mesh, points, faces);
-        std::shared_ptr<const CholeskySymbolic> symbolic;
+        InsideLayout inside(edges, is_border);
         return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
             Eigen::MatrixXd y = x;
-            if (!harmonic_inside(edges, weight, {}, is_border, y, symbolic)) return false;
+            if (!inside.solve(weight, {}, y)) return false;
             out.resize(3 * faces.size());
             for (std::size_t i = 0; i < faces.size(); ++i)
                 for (int k = 0; k < 3; ++k) {
@@ -518,12 +529,12 @@ Index embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Unio
         fixed[q] = is_border[q] || !moves[q];
         if (!is_border[q]) form_x(q, 0) = frame[q].real(), form_x(q, 1) = frame[q].imag();
     }
-    std::shared_ptr<const CholeskySymbolic> around_folds, whole;  // the two patterns' analyses
+    InsideLayout around_folds(edges, fixed), whole(edges, is_border);
     return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
         Eigen::MatrixXd y = form_x;
-        if (harmonic_inside(edges, weight, lift, fixed, y, around_folds) && layout(y, out) == 0) return true;
+        if (around_folds.solve(weight, lift, y) && layout(y, out) == 0) return true;
         y = x;
-        if (!harmonic_inside(edges, weight, lift, is_border, y, whole)) return false;
+        if (!whole.solve(weight, lift, y)) return false;
         layout(y, out);
         return true;
     });
