@@ -181,7 +181,7 @@ class Builder {
  public:
     Builder(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions)
         : mesh_(mesh), regions_(regions), vf_(mesh), along_(mesh.n_halfedges()), angle_(mesh.n_halfedges()),
-          flip_(mesh.n_faces(), 0), winding_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
+          flip_(mesh.n_faces(), 0), winding_(mesh.n_vertices(), 0), zero_vertex_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
           owner_(mesh.n_faces(), -1), mark_(mesh.n_faces(), 0), stamp_(mesh.n_vertices(), -1),
           chain_stamp_(mesh.n_vertices(), -1), candidate_stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), origin_(mesh.n_faces()),
           cut_(mesh.n_halfedges(), 0) {
@@ -200,9 +200,13 @@ class Builder {
             }
             flip_[f] = image_flips(sum);
         }
+        // Turns of the image around each vertex: whole turns inside, half-turns on the mesh
+        // boundary (where the double cover sees whole ones), so that 1 is regular everywhere.
         for (Index v = 0; v < mesh.n_vertices(); ++v)
-            winding_[v] = static_cast<int>(std::lround(total[v] / (2 * std::numbers::pi)));
+            winding_[v] = static_cast<int>(std::lround(total[v] / ((boundary_[v] ? 1 : 2) * std::numbers::pi)));
         face_cap_ = std::max<Index>(512, mesh.n_faces() / 32);
+        for (const ZeroRegion& r : regions)
+            if (r.order > 0 && r.vertex >= 0) zero_vertex_[r.vertex] = 1;
     }
 
     std::vector<Group> run() {
@@ -303,7 +307,7 @@ class Builder {
         std::vector<Index> vertices = region.vertices;
         if (region.vertex >= 0) vertices.push_back(region.vertex);
         for (Index v : vertices)
-            if (!boundary_[v] && winding_[v] != (v == region.vertex ? group.order + 1 : 1)) return false;
+            if (winding_[v] != (v == region.vertex ? group.order + 1 : 1)) return false;
         group.accepted = true;
         group.result = Retriangulation{};
         group.result.kept = true;
@@ -881,7 +885,8 @@ class Builder {
     }
 
     // New triangles: counter-clockwise images, non-degenerate in 3D, and every chain point
-    // still winding once (its outside angles plus its new inside angles make 2 pi).
+    // still winding once (its outside angles plus its new inside angles make 2 pi; pi on the
+    // mesh boundary, where a point turning 2 pi would be a zero nobody counted).
     bool triangles_are_valid(const Retriangulation& out, Diagnosis& diagnosis) const {
         const auto image = [&](Index p) { return out.image(p); };
         const auto position = [&](Index p) -> Eigen::RowVector3d {
@@ -924,14 +929,16 @@ class Builder {
             const Index v = inside[i].first;
             double total = 0;
             for (; i < inside.size() && inside[i].first == v; ++i) total += inside[i].second;
-            if (boundary_[v]) continue;
             for (Index j = vf_.start[v]; j < vf_.start[v + 1]; ++j) {
                 const Index f = vf_.faces[j];
                 if (std::binary_search(out.faces.begin(), out.faces.end(), f)) continue;
                 for (int k = 0; k < 3; ++k)
                     if (mesh_.F(f, k) == v) total += angle_[3 * f + k];
             }
-            if (std::lround(total / (2 * std::numbers::pi)) != 1) {
+            const double turn = boundary_[v] ? std::numbers::pi : 2 * std::numbers::pi;
+            const long turns = std::lround(total / turn);
+            // A zero's own boundary point may keep its turns: its region places it.
+            if (turns != 1 && !(boundary_[v] && zero_vertex_[v] && turns == winding_[v])) {
                 diagnosis.bad_vertices.push_back(v);
                 ok = false;
             }
@@ -962,6 +969,7 @@ class Builder {
     std::vector<Complex> along_;
     std::vector<double> angle_;
     std::vector<int> flip_, winding_;
+    std::vector<char> zero_vertex_;  // a zero's region sits at this vertex
     std::vector<char> boundary_;
     std::vector<Index> owner_;
     std::vector<char> mark_;

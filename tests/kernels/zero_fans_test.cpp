@@ -6,6 +6,8 @@
 #include <complex>
 #include <numbers>
 
+#include <Eigen/Geometry>
+
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/shapes.h"
@@ -26,6 +28,7 @@ struct ImageCheck {
     Index flipped = 0;
     double closedness = 0;
     std::vector<int> winding;  // interior vertices; boundary ones 0
+    std::vector<int> half_turns;  // boundary vertices (1 where the boundary runs straight); interior ones 0
 };
 
 ImageCheck check_image(const MeshView& m, const Eigen::VectorXcd& tau) {
@@ -44,8 +47,11 @@ ImageCheck check_image(const MeshView& m, const Eigen::VectorXcd& tau) {
         }
     }
     c.winding.resize(m.n_vertices());
-    for (Index v = 0; v < m.n_vertices(); ++v)
+    c.half_turns.resize(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) {
         c.winding[v] = boundary[v] ? 0 : static_cast<int>(std::lround(angle[v] / (2 * std::numbers::pi)));
+        c.half_turns[v] = boundary[v] ? static_cast<int>(std::lround(angle[v] / std::numbers::pi)) : 0;
+    }
     return c;
 }
 
@@ -187,6 +193,43 @@ TEST(ZeroFans, CorpusSegmentationsHaveNoFlippedTriangles) {
             EXPECT_LT(p.rectangle_error, 1e-9);
         }
     }
+}
+
+// A zero next to a mesh boundary whose fan reaches the boundary: a boundary point of the fan
+// must still turn half a turn (the double cover's whole turn; a zero's own point may keep its
+// turns), or the boundary doubles back there, an uncounted zero beside a patch that is no
+// rectangle. Rotated copies of double-torus-3-holes scaled 1 : 2.5 : 0.6, where the image
+// folds near the small holes. Before the check, 7 of these 40 had an irregular vertex that no
+// failed fan accounted for and 7 a rectangle error over 1e-3; now 1 and 3 (the rest: fans
+// around a small hole, which fail and are counted). A statistic, with room for rounding.
+TEST(ZeroFans, BoundaryPointsOfAFanTurnHalfOnce) {
+    const MeshView input = *test::corpus_mesh("double-torus-3-holes");
+    constexpr int kCopies = 40;
+    int silent = 0, not_rectangles = 0;
+    for (int copy = 0; copy < kCopies; ++copy) {
+        SCOPED_TRACE(copy);
+        MeshView m = input;
+        const Eigen::Matrix3d rotation = (Eigen::AngleAxisd(0.4 + 0.7 * copy, Eigen::Vector3d::UnitX()) *
+                                          Eigen::AngleAxisd(0.3 + 1.3 * copy, Eigen::Vector3d::UnitZ()))
+                                             .toRotationMatrix();
+        m.V = (input.V * rotation.transpose()) * Eigen::Vector3d(1, 2.5, 0.6).asDiagonal();
+        const engine::SegmentationResult r = engine::segment(m);
+        EXPECT_EQ(r.zeros.artifact_clusters, 0);
+        // Every vertex but the fans' centres turns once: 2 pi inside, pi on the boundary.
+        std::vector<char> centre(r.regular.mesh.n_vertices(), 0);
+        for (Index v : r.regular.region_vertex)
+            if (v >= 0) centre[v] = 1;
+        const ImageCheck c = check_image(r.regular.mesh, r.regular.tau);
+        Index irregular = 0;
+        for (Index v = 0; v < r.regular.mesh.n_vertices(); ++v)
+            irregular += !centre[v] && c.winding[v] + c.half_turns[v] != 1;
+        silent += irregular > 0 && r.regular.failed_regions == 0;
+        double rectangle_error = 0;
+        for (const PatchInfo& p : r.patches.info) rectangle_error = std::max(rectangle_error, p.rectangle_error);
+        not_rectangles += rectangle_error > 1e-3;
+    }
+    EXPECT_LE(silent, 3);
+    EXPECT_LE(not_rectangles, 5);
 }
 
 }  // namespace
