@@ -200,10 +200,7 @@ class Builder {
             }
             flip_[f] = image_flips(sum);
         }
-        // Turns of the image around each vertex: whole turns inside, half-turns on the mesh
-        // boundary (where the double cover sees whole ones), so that 1 is regular everywhere.
-        for (Index v = 0; v < mesh.n_vertices(); ++v)
-            winding_[v] = static_cast<int>(std::lround(total[v] / ((boundary_[v] ? 1 : 2) * std::numbers::pi)));
+        for (Index v = 0; v < mesh.n_vertices(); ++v) winding_[v] = turns(v, total[v]);
         face_cap_ = std::max<Index>(512, mesh.n_faces() / 32);
         for (const ZeroRegion& r : regions)
             if (r.order > 0 && r.vertex >= 0) zero_vertex_[r.vertex] = 1;
@@ -512,6 +509,12 @@ class Builder {
         return std::abs(mine - theirs) > 1e-8 * (std::abs(mine) + std::abs(edge));
     }
     bool is_chain(Index v) const { return chain_stamp_[v] == generation_; }
+
+    // Turns of the image around v for its angle sum: whole turns inside, half-turns on the mesh
+    // boundary (where the double cover sees whole ones), so that 1 is regular everywhere.
+    int turns(Index v, double angle) const {
+        return static_cast<int>(std::lround(angle / ((boundary_[v] ? 1 : 2) * std::numbers::pi)));
+    }
 
     bool develop(Group& group, Retriangulation& out, Diagnosis& diagnosis) {
         ++generation_;
@@ -935,10 +938,10 @@ class Builder {
                 for (int k = 0; k < 3; ++k)
                     if (mesh_.F(f, k) == v) total += angle_[3 * f + k];
             }
-            const double turn = boundary_[v] ? std::numbers::pi : 2 * std::numbers::pi;
-            const long turns = std::lround(total / turn);
-            // A zero's own boundary point may keep its turns: its region places it.
-            if (turns != 1 && !(boundary_[v] && zero_vertex_[v] && turns == winding_[v])) {
+            // A zero's own point may keep its turns where an open region's boundary stretch
+            // reaches it: its own region places it (inside, a zero's point is in its region).
+            const int t = turns(v, total);
+            if (t != 1 && !(boundary_[v] && zero_vertex_[v] && t == winding_[v])) {
                 diagnosis.bad_vertices.push_back(v);
                 ok = false;
             }
