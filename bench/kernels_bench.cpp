@@ -10,9 +10,12 @@
 //   hodge_star           wedge_matrix of the closed forms + hodge_star, as the pipeline's stage
 //   integrate_form       integrate_form of the chosen holomorphic form
 //   find_zeros           find_zeros of that form
+//   regularise_zeros     regularise_zeros of the zero clusters the pipeline's fan stage gets first
 //   trace_trajectories   trace_trajectories on the regularised form, layout mode
 //   cut_along_trajectories  cut_along_trajectories by the pipeline's curves (transversals too)
 //   compute_patches      compute_patches on that cut (flood fill, uv, per-patch measures)
+//   make_mesh_view       make_mesh_view of that cut's triangles with its twins (the checks every
+//                        kernel's output mesh passes: edges, vertex fans)
 // Everything a benchmark reads is built once per level outside timing (the segmentation
 // results come from one engine::segment call); each benchmark validates one call before timing.
 //
@@ -147,6 +150,30 @@ const SegmentationInputs& segmentation_inputs(int level) {
     in->border.assign(in->cut.mesh.n_edges(), 0);
     for (Index e = 0; e < in->cut.mesh.n_edges(); ++e) in->border[e] = in->cut.edge_trajectory[e] != kernels::kNoBorder;
     in->patches = r.patches.info.size();
+    return *cache.emplace(level, std::move(in)).first->second;
+}
+
+// What the fan stage gets first: the form on the surface and the zero clusters as regions (at
+// loop 0 the stage then refines where fans failed and tries again; this is its first try).
+struct FanInputs {
+    std::shared_ptr<const MeshView> mesh;
+    Eigen::VectorXcd tau;
+    std::vector<kernels::ZeroRegion> regions;
+    Index zeros = 0;
+};
+
+const FanInputs& fan_inputs(int level) {
+    static std::map<int, std::unique_ptr<FanInputs>> cache;
+    if (auto it = cache.find(level); it != cache.end()) return *it->second;
+    auto in = std::make_unique<FanInputs>();
+    engine::SegmentationWork work = engine::segment_stage::prepare(turbine_loop(level), engine::SegmentOptions{});
+    engine::conformal_stage::run_after_prepare(work.conformal);
+    engine::segment_stage::zeros(work);
+    if (work.result.conformal.double_covered) throw std::runtime_error("expected a closed surface");
+    in->mesh = work.result.traced_input;
+    in->tau = std::move(work.result.conformal.tau);
+    in->regions = std::move(work.regions);
+    in->zeros = static_cast<Index>(work.result.zeros.zeros.size());
     return *cache.emplace(level, std::move(in)).first->second;
 }
 
@@ -351,6 +378,23 @@ void BM_kernel_find_zeros(benchmark::State& state) {
     });
 }
 
+void BM_kernel_regularise_zeros(benchmark::State& state) {
+    with_inputs(state, fan_inputs, [&](const FanInputs& in) {
+        const auto regularise = [&] { return kernels::regularise_zeros(*in.mesh, in.tau, in.regions); };
+        {  // disks re-triangulated as disks: the surface's Euler characteristic stays
+            const kernels::RegularisedForm r = regularise();
+            const auto chi = [](const MeshView& m) { return m.n_vertices() - m.n_edges() + m.n_faces(); };
+            if (chi(r.mesh) != chi(*in.mesh)) return fail(state, "the fans changed the Euler characteristic");
+            state.counters["zeros"] = static_cast<double>(in.zeros);
+            state.counters["failed"] = static_cast<double>(r.failed_regions);
+        }
+        for (auto _ : state) {
+            const kernels::RegularisedForm r = regularise();
+            benchmark::DoNotOptimize(r.mesh.F.data());
+        }
+    });
+}
+
 void BM_kernel_trace_trajectories(benchmark::State& state) {
     with_inputs(state, segmentation_inputs, [&](const SegmentationInputs& in) {
         const auto trace = [&] {
@@ -403,6 +447,22 @@ void BM_kernel_compute_patches(benchmark::State& state) {
         for (auto _ : state) {
             const kernels::Patches p = fill();
             benchmark::DoNotOptimize(p.face_patch.data());
+        }
+    });
+}
+
+void BM_kernel_make_mesh_view(benchmark::State& state) {
+    with_inputs(state, segmentation_inputs, [&](const SegmentationInputs& in) {
+        const MeshView& m = in.cut.mesh;
+        const auto make = [&] { return holoflow::make_mesh_view(m.V, m.F, m.twin); };
+        {  // the same edges and vertex halfedges as the cut's own view
+            const MeshView v = make();
+            if (v.edge_halfedge != m.edge_halfedge || v.vertex_halfedge != m.vertex_halfedge)
+                return fail(state, "mesh view differs from the cut's");
+        }
+        for (auto _ : state) {
+            const MeshView v = make();
+            benchmark::DoNotOptimize(v.vertex_halfedge.data());
         }
     });
 }
@@ -468,9 +528,11 @@ int main(int argc, char** argv) {
     register_kernel("BM_kernel_hodge_star", BM_kernel_hodge_star);
     register_kernel("BM_kernel_integrate_form", BM_kernel_integrate_form);
     register_kernel("BM_kernel_find_zeros", BM_kernel_find_zeros);
+    register_kernel("BM_kernel_regularise_zeros", BM_kernel_regularise_zeros);
     register_kernel("BM_kernel_trace_trajectories", BM_kernel_trace_trajectories);
     register_kernel("BM_kernel_cut_along_trajectories", BM_kernel_cut_along_trajectories);
     register_kernel("BM_kernel_compute_patches", BM_kernel_compute_patches);
+    register_kernel("BM_kernel_make_mesh_view", BM_kernel_make_mesh_view);
     benchmark::AddCustomContext("mesh", "libcgal-demo turbine.off, Loop-subdivided");
     benchmark::AddCustomContext("tbb", TBB_VERSION_STRING);
     benchmark::AddCustomContext("tbb_max_concurrency",

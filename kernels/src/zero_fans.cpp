@@ -119,10 +119,26 @@ bool ear_clip(std::vector<Index> ids, const std::vector<Complex>& pos, std::vect
     return true;
 }
 
-// Faces around every vertex, CSR.
+// The triangles the fans work on, with the form along each halfedge: the input's, or those
+// after the edge flips, for which no MeshView is built (its edges and vertex fans are only
+// needed for the result).
+struct Triangles {
+    const PointMatrix& V;
+    const TriangleMatrix& F;
+    const std::vector<Index>& twin;
+    const std::vector<Complex>& along;
+
+    Index n_vertices() const { return static_cast<Index>(V.rows()); }
+    Index n_faces() const { return static_cast<Index>(F.rows()); }
+    Index n_halfedges() const { return 3 * n_faces(); }
+    Index tail(Index h) const { return F(h / 3, h % 3); }
+    Index head(Index h) const { return F(h / 3, (h % 3 + 1) % 3); }
+};
+
+// Faces around every vertex, CSR, each vertex's in ascending halfedge order.
 struct VertexFaces {
     std::vector<Index> start, faces;
-    explicit VertexFaces(const MeshView& mesh) : start(mesh.n_vertices() + 1, 0) {
+    explicit VertexFaces(const Triangles& mesh) : start(mesh.n_vertices() + 1, 0) {
         for (Index h = 0; h < mesh.n_halfedges(); ++h) ++start[mesh.tail(h) + 1];
         for (Index v = 0; v < mesh.n_vertices(); ++v) start[v + 1] += start[v];
         faces.resize(mesh.n_halfedges());
@@ -147,7 +163,7 @@ struct Retriangulation {
 
     Complex image(Index p) const { return p == kCentre ? centre_image : point_image[p]; }
     // Input vertex of chain point p (not the centre).
-    Index vertex(const MeshView& mesh, Index p) const {
+    Index vertex(const Triangles& mesh, Index p) const {
         const Index n = static_cast<Index>(chain.size());
         return open && p == n ? mesh.head(chain.back()) : mesh.tail(chain[p % n]);
     }
@@ -179,28 +195,15 @@ struct Diagnosis {
 
 class Builder {
  public:
-    Builder(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions)
-        : mesh_(mesh), regions_(regions), vf_(mesh), along_(mesh.n_halfedges()), angle_(mesh.n_halfedges()),
+    Builder(const Triangles& mesh, std::span<const ZeroRegion> regions)
+        : mesh_(mesh), regions_(regions), vf_(mesh), along_(mesh.along),
           flip_(mesh.n_faces(), 0), winding_(mesh.n_vertices(), 0), zero_vertex_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
           owner_(mesh.n_faces(), -1), mark_(mesh.n_faces(), 0), stamp_(mesh.n_vertices(), -1),
           chain_stamp_(mesh.n_vertices(), -1), candidate_stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), origin_(mesh.n_faces()),
           cut_(mesh.n_halfedges(), 0) {
-        for (Index h = 0; h < mesh.n_halfedges(); ++h) {
-            along_[h] = form_along(mesh, tau, h);
+        for (Index h = 0; h < mesh.n_halfedges(); ++h)
             if (mesh.twin[h] == kNoHalfedge) boundary_[mesh.tail(h)] = boundary_[mesh.head(h)] = 1;
-        }
-        std::vector<double> total(mesh.n_vertices(), 0);
-        for (Index f = 0; f < mesh.n_faces(); ++f) {
-            double sum = 0;
-            for (int k = 0; k < 3; ++k) {
-                const Index h = 3 * f + k;
-                angle_[h] = tail_angle(along_, h);
-                total[mesh.tail(h)] += angle_[h];
-                sum += angle_[h];
-            }
-            flip_[f] = image_flips(sum);
-        }
-        for (Index v = 0; v < mesh.n_vertices(); ++v) winding_[v] = turns(v, total[v]);
+        count_turns();
         face_cap_ = std::max<Index>(512, mesh.n_faces() / 32);
         for (const ZeroRegion& r : regions)
             if (r.order > 0 && r.vertex >= 0) zero_vertex_[r.vertex] = 1;
@@ -234,10 +237,62 @@ class Builder {
         return groups;
     }
 
-    const std::vector<Complex>& along() const { return along_; }
     const std::vector<int>& flips() const { return flip_; }
 
  private:
+    // Flips per face and turns per vertex, as their angle sums give them (image_flips, turns),
+    // with no arctangent where that is exact without: a face whose three corners are clearly
+    // not straight flips by its orientation, and an inner vertex whose corners all are so and
+    // whose link keeps clear of the ray from it towards +x turns as often as the link crosses
+    // that ray (each corner's angle is the one its straight opposite side sweeps). The others
+    // (and the boundary's half-turns) sum their angles in ascending halfedge order.
+    void count_turns() {
+        constexpr double kClear = 1e-12;  // |cross| (|imag|) over the product of lengths (|real|)
+        const auto on_ray = [](Complex z) { return z.real() > 0 && std::abs(z.imag()) <= kClear * z.real(); };
+        std::vector<Index> crossings(mesh_.n_vertices(), 0);
+        std::vector<char> summed(mesh_.n_vertices(), 0);
+        for (Index f = 0; f < mesh_.n_faces(); ++f) {
+            std::array<double, 3> side{};
+            bool clear = true;
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k;
+                const Complex a = along_[h], b = -along_[MeshView::prev(h)];
+                side[k] = cross(a, b);
+                clear = clear && side[k] * side[k] > kClear * kClear * std::norm(a) * std::norm(b);
+            }
+            clear = clear && (side[0] > 0) == (side[1] > 0) && (side[1] > 0) == (side[2] > 0);
+            if (!clear) {
+                double sum = 0;
+                for (int k = 0; k < 3; ++k) sum += tail_angle(along_, 3 * f + k);
+                flip_[f] = image_flips(sum);
+                for (int k = 0; k < 3; ++k) summed[mesh_.F(f, k)] = 1;
+                continue;
+            }
+            flip_[f] = side[0] < 0;
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k, v = mesh_.tail(h);
+                const Complex a = along_[h], b = -along_[MeshView::prev(h)];
+                if (on_ray(a) || on_ray(b)) summed[v] = 1;
+                if (a.imag() <= 0) crossings[v] += b.imag() > 0 && side[k] > 0;
+                else crossings[v] -= b.imag() <= 0 && side[k] < 0;
+            }
+        }
+        for (Index v = 0; v < mesh_.n_vertices(); ++v) {
+            if (!summed[v] && !boundary_[v]) {
+                winding_[v] = crossings[v];
+                continue;
+            }
+            double total = 0;
+            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) total += corner_angle_at(vf_.faces[i], v);
+            winding_[v] = turns(v, total);
+        }
+    }
+    // Image angle of face f at its corner v.
+    double corner_angle_at(Index f, Index v) const {
+        const int k = mesh_.F(f, 0) == v ? 0 : mesh_.F(f, 1) == v ? 1 : 2;
+        return tail_angle(along_, 3 * f + k);
+    }
+
     // Flips no region took in (and windings != 1 inside no region) become folds of their own.
     void add_leftovers(std::vector<Group>& groups) {
         std::vector<Index> seeds;
@@ -935,8 +990,7 @@ class Builder {
             for (Index j = vf_.start[v]; j < vf_.start[v + 1]; ++j) {
                 const Index f = vf_.faces[j];
                 if (std::binary_search(out.faces.begin(), out.faces.end(), f)) continue;
-                for (int k = 0; k < 3; ++k)
-                    if (mesh_.F(f, k) == v) total += angle_[3 * f + k];
+                total += corner_angle_at(f, v);
             }
             // A zero's own point may keep its turns where an open region's boundary stretch
             // reaches it: its own region places it (inside, a zero's point is in its region).
@@ -966,11 +1020,10 @@ class Builder {
         image_[v] = z;
     }
 
-    const MeshView& mesh_;
+    const Triangles& mesh_;
     std::span<const ZeroRegion> regions_;
     VertexFaces vf_;
-    std::vector<Complex> along_;
-    std::vector<double> angle_;
+    const std::vector<Complex>& along_;
     std::vector<int> flip_, winding_;
     std::vector<char> zero_vertex_;  // a zero's region sits at this vertex
     std::vector<char> boundary_;
@@ -991,19 +1044,20 @@ class Builder {
 // edge must not double one). Vertices stay; flipped faces lose their input face (-1); faces
 // marked `keep` stay.
 struct Flipped {
-    MeshView mesh;
-    Eigen::VectorXcd tau;
+    TriangleMatrix F;
+    std::vector<Index> twin;
+    std::vector<Complex> along;  // the form along each halfedge
     std::vector<Index> original_face;
     Index flips = 0;
 };
 
-Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std::vector<char>& keep) {
+Flipped flip_folds(const MeshView& mesh, std::vector<Complex> along, const std::vector<char>& keep) {
     const Index nf = mesh.n_faces();
-    TriangleMatrix F = mesh.F;
-    std::vector<Index> twin = mesh.twin;
-    std::vector<Complex> along(mesh.n_halfedges());
-    for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
     Flipped out;
+    out.F = mesh.F;
+    out.twin = mesh.twin;
+    TriangleMatrix& F = out.F;
+    std::vector<Index>& twin = out.twin;
     out.original_face.resize(nf);
     for (Index f = 0; f < nf; ++f) out.original_face[f] = f;
     const auto tail = [&](Index h) { return F(h / 3, h % 3); };
@@ -1049,18 +1103,15 @@ Flipped flip_folds(const MeshView& mesh, const Eigen::VectorXcd& tau, const std:
             break;
         }
     }
-    if (out.flips == 0) return out;  // the caller keeps the input mesh and form
-    out.mesh = make_mesh_view(mesh.V, std::move(F), std::move(twin));
-    out.tau.resize(out.mesh.n_edges());
-    for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along[out.mesh.edge_halfedge[e]];
+    out.along = std::move(along);
     return out;
 }
 
-RegularisedForm regularise_on(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const ZeroRegion> regions) {
+RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion> regions) {
     RegularisedForm out;
-    Builder builder(mesh, tau, regions);
+    Builder builder(mesh, regions);
     const std::vector<Group> groups = builder.run();
-    const std::vector<Complex>& along = builder.along();
+    const std::vector<Complex>& along = mesh.along;
     std::vector<Index> accepted;
     for (std::size_t g = 0; g < groups.size(); ++g)
         if (groups[g].accepted && !groups[g].result.kept) accepted.push_back(static_cast<Index>(g));
@@ -1215,10 +1266,12 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     std::vector<char> keep(mesh.n_faces(), 0);
     for (const ZeroRegion& r : regions)
         if (r.face >= 0) keep[r.face] = 1;
-    const Flipped flipped = flip_folds(mesh, tau, keep);
-    if (flipped.flips == 0) return regularise_on(mesh, tau, regions);
+    std::vector<Complex> along(mesh.n_halfedges());
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
+    const Flipped flipped = flip_folds(mesh, std::move(along), keep);
+    if (flipped.flips == 0) return regularise_on(Triangles{mesh.V, mesh.F, mesh.twin, flipped.along}, regions);
     // Flips keep vertex and face ids and never touch a kept face: the regions hold as given.
-    RegularisedForm out = regularise_on(flipped.mesh, flipped.tau, regions);
+    RegularisedForm out = regularise_on(Triangles{mesh.V, flipped.F, flipped.twin, flipped.along}, regions);
     for (Index& f : out.original_face)
         if (f >= 0) f = flipped.original_face[f];
     out.edge_flips = flipped.flips;

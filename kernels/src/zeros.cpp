@@ -325,23 +325,36 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         else ++z.artifact_clusters;
     }
     std::vector<Index> nearest(nv);
+    std::vector<char> sought(nv, 0);  // first vertices of the negative clusters
     for (bool negative_left = true; negative_left;) {
         negative_left = false;
         std::fill(nearest.begin(), nearest.end(), Index{-1});
         queue.clear();
-        for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c)
-            if (z.clusters[c].index > 0)
-                for (Index v : z.clusters[c].vertices) nearest[v] = c, queue.push_back(v);
-        for (std::size_t q = 0; q < queue.size(); ++q) {
+        Index pending = 0;
+        for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
+            const ZeroCluster& cluster = z.clusters[c];
+            if (cluster.index > 0)
+                for (Index v : cluster.vertices) nearest[v] = c, queue.push_back(v);
+            else if (cluster.index < 0 && !sought[cluster.vertices.front()])
+                sought[cluster.vertices.front()] = 1, ++pending;
+        }
+        // Breadth first from the positive clusters until every negative one is reached (the
+        // rest of the surface would not change whom they reach first).
+        for (std::size_t q = 0; q < queue.size() && pending > 0; ++q) {
             const Index v = queue[q];
             Index h = mesh.vertex_halfedge[v];
             const Index start = h;
             do {
                 const Index w = mesh.head(h);
-                if (nearest[w] < 0) nearest[w] = nearest[v], queue.push_back(w);
+                if (nearest[w] < 0) {
+                    nearest[w] = nearest[v], queue.push_back(w);
+                    pending -= sought[w];
+                }
                 h = mesh.rotate(h);
             } while (h != start && h != kNoHalfedge);
         }
+        for (const ZeroCluster& cluster : z.clusters)
+            if (!cluster.vertices.empty()) sought[cluster.vertices.front()] = 0;
         for (Index c = 0; c < static_cast<Index>(z.clusters.size()); ++c) {
             ZeroCluster& cluster = z.clusters[c];
             if (cluster.index >= 0 || nearest[cluster.vertices.front()] < 0) continue;
