@@ -197,13 +197,16 @@ class Builder {
  public:
     Builder(const Triangles& mesh, std::span<const ZeroRegion> regions)
         : mesh_(mesh), regions_(regions), vf_(mesh), along_(mesh.along),
-          flip_(mesh.n_faces(), 0), winding_(mesh.n_vertices(), 0), zero_vertex_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
+          zero_vertex_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
           owner_(mesh.n_faces(), -1), mark_(mesh.n_faces(), 0), stamp_(mesh.n_vertices(), -1),
           chain_stamp_(mesh.n_vertices(), -1), candidate_stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), origin_(mesh.n_faces()),
           cut_(mesh.n_halfedges(), 0) {
         for (Index h = 0; h < mesh.n_halfedges(); ++h)
             if (mesh.twin[h] == kNoHalfedge) boundary_[mesh.tail(h)] = boundary_[mesh.head(h)] = 1;
-        count_turns();
+        // Half-turns on the mesh boundary, where the double cover sees whole ones (turns()).
+        ImageTurns image = image_turns(mesh.F, mesh.n_vertices(), along_, boundary_);
+        flip_ = std::move(image.face_flip);
+        winding_ = std::move(image.turns);
         face_cap_ = std::max<Index>(512, mesh.n_faces() / 32);
         for (const ZeroRegion& r : regions)
             if (r.order > 0 && r.vertex >= 0) zero_vertex_[r.vertex] = 1;
@@ -240,53 +243,6 @@ class Builder {
     const std::vector<int>& flips() const { return flip_; }
 
  private:
-    // Flips per face and turns per vertex, as their angle sums give them (image_flips, turns),
-    // with no arctangent where that is exact without: a face whose three corners are clearly
-    // not straight flips by its orientation, and an inner vertex whose corners all are so and
-    // whose link keeps clear of the ray from it towards +x turns as often as the link crosses
-    // that ray (each corner's angle is the one its straight opposite side sweeps). The others
-    // (and the boundary's half-turns) sum their angles in ascending halfedge order.
-    void count_turns() {
-        constexpr double kClear = 1e-12;  // |cross| (|imag|) over the product of lengths (|real|)
-        const auto on_ray = [](Complex z) { return z.real() > 0 && std::abs(z.imag()) <= kClear * z.real(); };
-        std::vector<Index> crossings(mesh_.n_vertices(), 0);
-        std::vector<char> summed(mesh_.n_vertices(), 0);
-        for (Index f = 0; f < mesh_.n_faces(); ++f) {
-            std::array<double, 3> side{};
-            bool clear = true;
-            for (int k = 0; k < 3; ++k) {
-                const Index h = 3 * f + k;
-                const Complex a = along_[h], b = -along_[MeshView::prev(h)];
-                side[k] = cross(a, b);
-                clear = clear && side[k] * side[k] > kClear * kClear * std::norm(a) * std::norm(b);
-            }
-            clear = clear && (side[0] > 0) == (side[1] > 0) && (side[1] > 0) == (side[2] > 0);
-            if (!clear) {
-                double sum = 0;
-                for (int k = 0; k < 3; ++k) sum += tail_angle(along_, 3 * f + k);
-                flip_[f] = image_flips(sum);
-                for (int k = 0; k < 3; ++k) summed[mesh_.F(f, k)] = 1;
-                continue;
-            }
-            flip_[f] = side[0] < 0;
-            for (int k = 0; k < 3; ++k) {
-                const Index h = 3 * f + k, v = mesh_.tail(h);
-                const Complex a = along_[h], b = -along_[MeshView::prev(h)];
-                if (on_ray(a) || on_ray(b)) summed[v] = 1;
-                if (a.imag() <= 0) crossings[v] += b.imag() > 0 && side[k] > 0;
-                else crossings[v] -= b.imag() <= 0 && side[k] < 0;
-            }
-        }
-        for (Index v = 0; v < mesh_.n_vertices(); ++v) {
-            if (!summed[v] && !boundary_[v]) {
-                winding_[v] = crossings[v];
-                continue;
-            }
-            double total = 0;
-            for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) total += corner_angle_at(vf_.faces[i], v);
-            winding_[v] = turns(v, total);
-        }
-    }
     // Image angle of face f at its corner v.
     double corner_angle_at(Index f, Index v) const {
         const int k = mesh_.F(f, 0) == v ? 0 : mesh_.F(f, 1) == v ? 1 : 2;

@@ -1,6 +1,8 @@
 #include "holoflow/kernels/zeros.h"
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
 #include <cmath>
 #include <numbers>
 
@@ -39,32 +41,20 @@ Complex image_direction(const MeshView& mesh, const Eigen::VectorXcd& tau, Index
 
 // Image windings and flips of the mesh's piecewise linear image.
 void count_windings(const MeshView& mesh, const Eigen::VectorXcd& tau, ZeroSet& z) {
-    const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
-    z.face_flip.assign(nf, 0);
-    std::vector<double> angle(3 * static_cast<std::size_t>(nf));
-    par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
-        for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
-            const Complex d[3] = {image_direction(mesh, tau, 3 * f), image_direction(mesh, tau, 3 * f + 1),
-                                  image_direction(mesh, tau, 3 * f + 2)};
-            double sum = 0;
-            for (int k = 0; k < 3; ++k) {
-                const double a = corner_angle(d[k], -d[(k + 2) % 3]);
-                angle[3 * f + k] = a;
-                sum += a;
-            }
-            // Counting -1 for 3 pi keeps the identity exact whatever the sum.
-            z.face_flip[f] = image_flips(sum);
-        }
-    });
-    std::vector<double> vertex_angle(nv, 0.0);
-    for (Index h = 0; h < mesh.n_halfedges(); ++h) vertex_angle[mesh.tail(h)] += angle[h];
-    z.winding.resize(nv);
-    for (Index v = 0; v < nv; ++v) {
-        z.winding[v] = static_cast<int>(std::lround(vertex_angle[v] / (2 * std::numbers::pi)));
+    std::vector<Complex> along(mesh.n_halfedges());
+    par::for_each_range(static_cast<std::size_t>(mesh.n_halfedges()), 3 * kParallelFaces,
+                        [&](std::size_t begin, std::size_t end) {
+                            for (std::size_t h = begin; h < end; ++h)
+                                along[h] = image_direction(mesh, tau, static_cast<Index>(h));
+                        });
+    ImageTurns turns = image_turns(mesh.F, mesh.n_vertices(), along);
+    z.face_flip = std::move(turns.face_flip);
+    z.winding = std::move(turns.turns);
+    for (Index v = 0; v < mesh.n_vertices(); ++v) {
         z.total_index += z.winding[v] - 1;
         z.nonpositive_winding_vertices += z.winding[v] <= 0;
     }
-    for (Index f = 0; f < nf; ++f) z.total_index += z.face_flip[f];
+    for (Index f = 0; f < mesh.n_faces(); ++f) z.total_index += z.face_flip[f];
 }
 
 // Saddle orders m_v of u on triangulation t, du = Re tau and dv = Im tau on its edges. Each
@@ -187,6 +177,63 @@ Adjacency special_adjacency(Index nv, const std::vector<std::pair<Index, Index>>
 }
 
 }  // namespace
+
+ImageTurns image_turns(const TriangleMatrix& F, Index n_vertices, std::span<const Complex> along,
+                       std::span<const char> half) {
+    const Index nf = static_cast<Index>(F.rows());
+    HOLOFLOW_REQUIRE(static_cast<Index>(along.size()) == 3 * nf && (half.empty() || static_cast<Index>(half.size()) == n_vertices),
+                     "image_turns needs 3 values per face and no or one flag per vertex");
+    constexpr double kClear = 1e-12;  // |cross| (|imag|) over the product of lengths (|real|)
+    const auto on_ray = [](Complex z) { return z.real() > 0 && std::abs(z.imag()) <= kClear * z.real(); };
+    const auto angle = [&](Index h) { return corner_angle(along[h], -along[MeshView::prev(h)]); };
+    ImageTurns out;
+    out.face_flip.assign(nf, 0);
+    // Per corner: the crossing of the ray (+1, -1, 0), or 2 where its vertex must sum angles.
+    constexpr std::int8_t kSum = 2;
+    std::vector<std::int8_t> corner(3 * static_cast<std::size_t>(nf), 0);
+    par::for_each_range(static_cast<std::size_t>(nf), kParallelFaces, [&](std::size_t begin, std::size_t end) {
+        for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
+            std::array<double, 3> side{};
+            bool clear = true;
+            for (int k = 0; k < 3; ++k) {
+                const Complex a = along[3 * f + k], b = -along[MeshView::prev(3 * f + k)];
+                side[k] = cross(a, b);
+                clear = clear && side[k] * side[k] > kClear * kClear * std::norm(a) * std::norm(b);
+            }
+            clear = clear && (side[0] > 0) == (side[1] > 0) && (side[1] > 0) == (side[2] > 0);
+            if (!clear) {
+                out.face_flip[f] = image_flips(angle(3 * f) + angle(3 * f + 1) + angle(3 * f + 2));
+                for (int k = 0; k < 3; ++k) corner[3 * f + k] = kSum;
+                continue;
+            }
+            out.face_flip[f] = side[0] < 0;
+            for (int k = 0; k < 3; ++k) {
+                const Complex a = along[3 * f + k], b = -along[MeshView::prev(3 * f + k)];
+                if (on_ray(a) || on_ray(b)) corner[3 * f + k] = kSum;
+                else if (a.imag() <= 0) corner[3 * f + k] = b.imag() > 0 && side[k] > 0;
+                else corner[3 * f + k] = -static_cast<std::int8_t>(b.imag() <= 0 && side[k] < 0);
+            }
+        }
+    });
+    const auto tail = [&](Index h) { return F(h / 3, h % 3); };
+    std::vector<Index> crossings(n_vertices, 0);
+    std::vector<char> summed(n_vertices, 0);
+    for (Index v = 0; v < n_vertices && !half.empty(); ++v) summed[v] = half[v];
+    for (Index h = 0; h < 3 * nf; ++h) {
+        if (corner[h] == kSum) summed[tail(h)] = 1;
+        else crossings[tail(h)] += corner[h];
+    }
+    std::vector<double> total(n_vertices, 0.0);
+    for (Index h = 0; h < 3 * nf; ++h)
+        if (summed[tail(h)]) total[tail(h)] += angle(h);
+    out.turns.resize(n_vertices);
+    for (Index v = 0; v < n_vertices; ++v) {
+        const bool halves = !half.empty() && half[v];
+        out.turns[v] = !summed[v] ? crossings[v]
+                                  : static_cast<int>(std::lround(total[v] / ((halves ? 1 : 2) * std::numbers::pi)));
+    }
+    return out;
+}
 
 ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const ZeroOptions& options) {
     HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <numeric>
+#include <random>
 
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/kernels/shapes.h"
@@ -297,6 +299,53 @@ TEST(Zeros, StretchedFemurHasNoArtifacts) {
     EXPECT_EQ(z.merged_negative_clusters, 0);
     EXPECT_EQ(z.total_order, 2);
     EXPECT_EQ(z.zeros.size(), 2u);
+}
+
+// image_turns gives exactly the rounded angle sums, through its shortcuts or not: images with
+// straight corners, repeated points, points on the ray from a vertex, flipped triangles and
+// edges whose two sides differ by rounding, whole turns inside and half-turns on the boundary,
+// against the sums of corner_angle.
+TEST(Zeros, ImageTurnsAreTheRoundedAngleSums) {
+    const MeshView m = shapes::flat_grid(12, 9);
+    std::vector<char> boundary(m.n_vertices(), 0);
+    for (Index h = 0; h < m.n_halfedges(); ++h)
+        if (m.twin[h] == kNoHalfedge) boundary[m.tail(h)] = 1;
+    std::mt19937_64 rng(20261203);
+    std::uniform_real_distribution<double> jitter(-0.04, 0.04);
+    std::uniform_int_distribution<int> pick(0, 9);
+    for (int trial = 0; trial < 40; ++trial) {
+        SCOPED_TRACE(trial);
+        std::vector<std::complex<double>> image(m.n_vertices());
+        const std::complex<double> turn = std::polar(1.0, 0.37 * trial);  // trial 0: the grid's own axes
+        for (Index v = 0; v < m.n_vertices(); ++v) {
+            const std::complex<double> z(m.V(v, 0), m.V(v, 1));
+            switch (pick(rng)) {
+                case 0: image[v] = z * z * turn; break;                            // folds where z^2 wraps
+                case 1: image[v] = std::round(4.0 * z.real()) / 4.0 * turn; break;  // collinear, repeated
+                default: image[v] = (z + std::complex<double>(jitter(rng), trial % 3 ? jitter(rng) : 0)) * turn;
+            }
+        }
+        std::vector<std::complex<double>> along(m.n_halfedges());
+        for (Index h = 0; h < m.n_halfedges(); ++h) along[h] = image[m.head(h)] - image[m.tail(h)];
+        if (trial % 4 == 0)  // the two sides of an edge a rounding apart: links that do not quite close
+            for (auto& a : along) a += 1e-13 * std::complex<double>(jitter(rng), jitter(rng));
+        const ImageTurns turns = image_turns(m.F, m.n_vertices(), along, boundary);
+        std::vector<double> total(m.n_vertices(), 0);
+        Index flipped = 0;
+        for (Index f = 0; f < m.n_faces(); ++f) {
+            double sum = 0;
+            for (int k = 0; k < 3; ++k) {
+                const double a = corner_angle(along[3 * f + k], -along[MeshView::prev(3 * f + k)]);
+                total[m.F(f, k)] += a;
+                sum += a;
+            }
+            EXPECT_EQ(turns.face_flip[f], image_flips(sum)) << "face " << f;
+            flipped += image_flips(sum) != 0;
+        }
+        for (Index v = 0; v < m.n_vertices(); ++v)
+            EXPECT_EQ(turns.turns[v], std::lround(total[v] / ((boundary[v] ? 1 : 2) * std::numbers::pi))) << "vertex " << v;
+        if (trial == 1) EXPECT_GT(flipped, 0);  // the sweep holds folds, not only clean images
+    }
 }
 
 TEST(Zeros, RejectsBadInput) {

@@ -25,6 +25,24 @@ inline int image_flips(double angle_sum) {
     return static_cast<int>(std::lround((std::numbers::pi - angle_sum) / (2 * std::numbers::pi)));
 }
 
+//! Flips per face and turns per vertex of a piecewise linear image.
+struct ImageTurns {
+    std::vector<int> face_flip;  //!< #F: image_flips of the face's angle sum
+    std::vector<int> turns;      //!< #V: angle sum in whole turns, in half-turns where `half`
+};
+
+//! \brief The image bookkeeping of triangles F whose halfedge h = 3 f + k runs along `along[h]`
+//! in the image: per face image_flips of its three corner angles (corner_angle of its two
+//! edges), per vertex the sum of its corners' angles over 2 pi (over pi where half[v]),
+//! rounded. Exactly these numbers, with no arctangent where none is needed: a face whose
+//! corners are all clearly not straight flips by its orientation, and an inner vertex whose
+//! corners are all so and whose link keeps clear of the ray from it towards +x turns as often
+//! as the link crosses that ray (each corner's principal angle is the one its straight opposite
+//! side sweeps); the other vertices sum their angles in ascending halfedge order.
+//! \pre along has 3 #F values; half empty or #V flags.
+ImageTurns image_turns(const TriangleMatrix& F, Index n_vertices, std::span<const std::complex<double>> along,
+                       std::span<const char> half = {});
+
 //! Special vertices that touch: saddles (saddle_order != 0), vertices with image winding != 1
 //! and corners of flipped image triangles (DESIGN 2.5). A component holding several saddle
 //! groups is split between them (each special vertex goes to its nearest group), so a cluster
