@@ -187,7 +187,9 @@ namespace {
 void locate_zeros(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     r.conformal = std::move(work.conformal.result);
-    work.conformal = {};
+    {  // the rest of the conformal work (factor, Laplacian, solve blocks) goes now
+        const ConformalWork released = std::move(work.conformal);
+    }
     // Saddles are counted where the form is harmonic: on the intrinsic Delaunay triangulation
     // the Laplacian was built on (its flips replayed on tau), else on the mesh with its own
     // cotan weights.

@@ -9,6 +9,22 @@ namespace {
 
 // Unit square a=0 (0,0), b=1 (1,1), c=2 (0,1), d=3 (1,0): faces (a, b, c) and (b, a, d) on the
 // diagonal a-b; the flip puts them on c-d.
+// Each edge is represented by the smaller halfedge of its pair, E runs along it, and edge_sign
+// (read off twin alone) agrees: on a sphere, a torus and an open grid.
+TEST(MeshView, EdgesRunAlongTheirSmallerHalfedge) {
+    for (const MeshView& m : {shapes::icosphere(2), shapes::flat_grid(7, 5), shapes::torus(1.0, 0.4, 12, 7)}) {
+        for (Index e = 0; e < m.n_edges(); ++e) {
+            const Index h = m.edge_halfedge[e], t = m.twin[h];
+            EXPECT_TRUE(t == kNoHalfedge || h < t) << "edge " << e;
+            EXPECT_EQ(m.halfedge_edge[h], e);
+            EXPECT_EQ(m.E(e, 0), m.tail(h));
+            EXPECT_EQ(m.E(e, 1), m.head(h));
+        }
+        for (Index h = 0; h < m.n_halfedges(); ++h)
+            EXPECT_EQ(m.edge_sign(h), m.edge_halfedge[m.halfedge_edge[h]] == h ? 1 : -1) << "halfedge " << h;
+    }
+}
+
 TEST(FlipEdge, TurnsTheDiagonalAndKeepsTheOuterPairing) {
     PointMatrix V(4, 3);
     V << 0, 0, 0, 1, 1, 0, 0, 1, 0, 1, 0, 0;

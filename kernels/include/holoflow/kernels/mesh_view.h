@@ -56,8 +56,12 @@ struct MeshView {
     Index tail(Index h) const { return F(h / 3, h % 3); }
     Index head(Index h) const { return F(h / 3, (h % 3 + 1) % 3); }
     bool is_boundary_halfedge(Index h) const { return twin[h] == kNoHalfedge; }
-    //! +1 if halfedge h points along its edge's orientation, -1 otherwise.
-    int edge_sign(Index h) const { return edge_halfedge[halfedge_edge[h]] == h ? 1 : -1; }
+    //! +1 if halfedge h points along its edge's orientation, -1 otherwise. The representative
+    //! is the smaller halfedge of the pair: one load of twin, not two dependent ones.
+    int edge_sign(Index h) const {
+        const Index t = twin[h];
+        return t == kNoHalfedge || h < t ? 1 : -1;
+    }
     //! Next outgoing halfedge around tail(h), counter-clockwise; kNoHalfedge at the boundary.
     Index rotate(Index h) const { return twin[prev(h)]; }
     bool is_closed() const;
