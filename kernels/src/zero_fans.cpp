@@ -27,16 +27,10 @@ constexpr double kDegenerateTol = 1e-12;   // 3D cross product relative to squar
 constexpr double kTouchTol = 1e-10;        // image distances relative to the region's extent
 constexpr Index kCentre = -1;              // point id of the centre in a triangle
 
-// Image angle at the tail of halfedge h, between h and the reverse of the previous halfedge.
-double tail_angle(const std::vector<Complex>& along, Index h) {
-    return corner_angle(along[h], -along[MeshView::prev(h)]);
-}
-
 // Flipped image triangles of a mesh whose halfedge images are `along` (faces from first_face on).
 Index count_flipped_images(const std::vector<Complex>& along, Index first_face = 0) {
     Index flipped = 0;
-    for (Index h = 3 * first_face; h < static_cast<Index>(along.size()); h += 3)
-        flipped += image_flips(tail_angle(along, h) + tail_angle(along, h + 1) + tail_angle(along, h + 2)) != 0;
+    for (Index f = first_face; f < static_cast<Index>(along.size()) / 3; ++f) flipped += face_flips(along, f) != 0;
     return flipped;
 }
 
@@ -1000,9 +994,10 @@ class Builder {
 // edge must not double one). Vertices stay; flipped faces lose their input face (-1); faces
 // marked `keep` stay.
 struct Flipped {
+    std::vector<Complex> along;  // the form along each halfedge
+    // Only where some image triangle was flipped (the caller reads them when flips > 0):
     TriangleMatrix F;
     std::vector<Index> twin;
-    std::vector<Complex> along;  // the form along each halfedge
     std::vector<Index> original_face;
     Index flips = 0;
 };
@@ -1010,6 +1005,16 @@ struct Flipped {
 Flipped flip_folds(const MeshView& mesh, std::vector<Complex> along, const std::vector<char>& keep) {
     const Index nf = mesh.n_faces();
     Flipped out;
+    const auto flipped = [&](Index f) {
+        return !ccw(Complex(0), along[3 * f], -along[3 * f + 2]);
+    };
+    std::vector<Index> queue;
+    for (Index f = 0; f < nf; ++f)
+        if (flipped(f)) queue.push_back(f);
+    if (queue.empty()) {  // nothing to flip: the caller keeps the input's triangles
+        out.along = std::move(along);
+        return out;
+    }
     out.F = mesh.F;
     out.twin = mesh.twin;
     TriangleMatrix& F = out.F;
@@ -1018,12 +1023,6 @@ Flipped flip_folds(const MeshView& mesh, std::vector<Complex> along, const std::
     for (Index f = 0; f < nf; ++f) out.original_face[f] = f;
     const auto tail = [&](Index h) { return F(h / 3, h % 3); };
     const auto head = [&](Index h) { return F(h / 3, (h % 3 + 1) % 3); };
-    const auto flipped = [&](Index f) {
-        return !ccw(Complex(0), along[3 * f], -along[3 * f + 2]);
-    };
-    std::vector<Index> queue;
-    for (Index f = 0; f < nf; ++f)
-        if (flipped(f)) queue.push_back(f);
     std::vector<char> queued(nf, 0);
     for (Index f : queue) queued[f] = 1;
     const std::size_t limit = 16 * queue.size() + 64;  // flips only ever get fewer; a guard

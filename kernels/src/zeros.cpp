@@ -185,7 +185,6 @@ ImageTurns image_turns(const TriangleMatrix& F, Index n_vertices, std::span<cons
                      "image_turns needs 3 values per face and no or one flag per vertex");
     constexpr double kClear = 1e-12;  // |cross| (|imag|) over the product of lengths (|real|)
     const auto on_ray = [](Complex z) { return z.real() > 0 && std::abs(z.imag()) <= kClear * z.real(); };
-    const auto angle = [&](Index h) { return corner_angle(along[h], -along[MeshView::prev(h)]); };
     ImageTurns out;
     out.face_flip.assign(nf, 0);
     // Per corner: the crossing of the ray (+1, -1, 0), or 2 where its vertex must sum angles.
@@ -202,7 +201,7 @@ ImageTurns image_turns(const TriangleMatrix& F, Index n_vertices, std::span<cons
             }
             clear = clear && (side[0] > 0) == (side[1] > 0) && (side[1] > 0) == (side[2] > 0);
             if (!clear) {
-                out.face_flip[f] = image_flips(angle(3 * f) + angle(3 * f + 1) + angle(3 * f + 2));
+                out.face_flip[f] = face_flips(along, f);
                 for (int k = 0; k < 3; ++k) corner[3 * f + k] = kSum;
                 continue;
             }
@@ -217,15 +216,14 @@ ImageTurns image_turns(const TriangleMatrix& F, Index n_vertices, std::span<cons
     });
     const auto tail = [&](Index h) { return F(h / 3, h % 3); };
     std::vector<Index> crossings(n_vertices, 0);
-    std::vector<char> summed(n_vertices, 0);
-    for (Index v = 0; v < n_vertices && !half.empty(); ++v) summed[v] = half[v];
+    std::vector<char> summed = half.empty() ? std::vector<char>(n_vertices, 0) : std::vector<char>(half.begin(), half.end());
     for (Index h = 0; h < 3 * nf; ++h) {
         if (corner[h] == kSum) summed[tail(h)] = 1;
         else crossings[tail(h)] += corner[h];
     }
     std::vector<double> total(n_vertices, 0.0);
     for (Index h = 0; h < 3 * nf; ++h)
-        if (summed[tail(h)]) total[tail(h)] += angle(h);
+        if (summed[tail(h)]) total[tail(h)] += tail_angle(along, h);
     out.turns.resize(n_vertices);
     for (Index v = 0; v < n_vertices; ++v) {
         const bool halves = !half.empty() && half[v];

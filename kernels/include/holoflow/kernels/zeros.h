@@ -25,6 +25,17 @@ inline int image_flips(double angle_sum) {
     return static_cast<int>(std::lround((std::numbers::pi - angle_sum) / (2 * std::numbers::pi)));
 }
 
+//! Image angle at the tail of halfedge h of triangles whose halfedge 3 f + k runs along
+//! `along[3 f + k]`: between h and the reverse of the previous halfedge of its face.
+inline double tail_angle(std::span<const std::complex<double>> along, Index h) {
+    return corner_angle(along[h], -along[MeshView::prev(h)]);
+}
+
+//! image_flips of face f from its three tail angles.
+inline int face_flips(std::span<const std::complex<double>> along, Index f) {
+    return image_flips(tail_angle(along, 3 * f) + tail_angle(along, 3 * f + 1) + tail_angle(along, 3 * f + 2));
+}
+
 //! Flips per face and turns per vertex of a piecewise linear image.
 struct ImageTurns {
     std::vector<int> face_flip;  //!< #F: image_flips of the face's angle sum
