@@ -9,6 +9,7 @@
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/holomorphic.h"
+#include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/tips.h"
 #include "holoflow/kernels/topology.h"
@@ -45,9 +46,18 @@ Eigen::VectorXcd restrict_to_first_copy(const MeshView& open, const MeshView& co
     return out;
 }
 
-// The surface halfedge under halfedge h of a torus's regularised mesh: the one with the same two
-// vertices in h's surface face (the mesh keeps the surface's vertices and faces, no fans, but the
-// torus's corner point may split a face); kNoHalfedge for the corner's spokes.
+// A torus's periods of its form along its homology generators (the fold fans keep the form's
+// class, so the regularised form has the same ones).
+std::array<Complex, 2> generator_periods(const SegmentationResult& r) {
+    std::array<Complex, 2> period{};
+    for (int i = 0; i < 2; ++i)
+        for (Index h : r.conformal.homology.loops[i]) period[i] += kernels::form_along(*r.conformal.surface, r.conformal.tau, h);
+    return period;
+}
+
+// The surface halfedge under halfedge h of a torus's regularised mesh without fans: the one
+// with the same two vertices in h's surface face (the torus's corner point may split a face);
+// kNoHalfedge for the corner's spokes.
 Index surface_halfedge(const SegmentationResult& r, Index h) {
     const MeshView& surface = *r.conformal.surface;
     const MeshView& m = r.regular.mesh;
@@ -57,22 +67,19 @@ Index surface_halfedge(const SegmentationResult& r, Index h) {
     return kNoHalfedge;
 }
 
-// A torus's periods of the regularised form along its homology generators.
-std::array<Complex, 2> generator_periods(const SegmentationResult& r) {
-    const MeshView& m = r.regular.mesh;
-    std::vector<Index> regular_halfedge(r.conformal.surface->n_halfedges(), kNoHalfedge);
-    for (Index h = 0; h < m.n_halfedges(); ++h)
-        if (const Index s = surface_halfedge(r, h); s != kNoHalfedge) regular_halfedge[s] = h;
-    std::array<Complex, 2> period{};
-    for (int i = 0; i < 2; ++i)
-        for (Index h : r.conformal.homology.loops[i]) period[i] += kernels::form_along(m, r.regular.tau, regular_halfedge[h]);
-    return period;
-}
-
-// A torus's regularised mesh edges on its homology cut graph: kHomologyCut, else kNoBorder.
+// A torus's regularised mesh edges on a homology cut graph: kHomologyCut, else kNoBorder. The
+// surface's own cut graph where the mesh kept the surface's faces; where fans re-triangulated
+// folds, the cut graph of the regularised mesh itself.
 std::vector<Index> homology_cut_labels(const SegmentationResult& r) {
     const MeshView& m = r.regular.mesh;
     std::vector<Index> label(m.n_edges(), kernels::kNoBorder);
+    const std::vector<Index>& original_face = r.regular.original_face;
+    if (std::find(original_face.begin(), original_face.end(), Index{-1}) != original_face.end()) {
+        const kernels::HomologyBasis own = kernels::compute_homology_basis(m);
+        for (Index e = 0; e < m.n_edges(); ++e)
+            if (own.cut_edge[e]) label[e] = kHomologyCut;
+        return label;
+    }
     for (Index e = 0; e < m.n_edges(); ++e) {
         const Index s = surface_halfedge(r, m.edge_halfedge[e]);
         if (s != kNoHalfedge && r.conformal.homology.cut_edge[r.conformal.surface->halfedge_edge[s]]) label[e] = kHomologyCut;
@@ -200,7 +207,9 @@ void locate_zeros(SegmentationWork& work) {
     r.zeros = kernels::find_zeros(*r.conformal.surface, r.conformal.tau, zero_options);
     r.conformal.intrinsic.reset();  // nothing after the zeros needs them
     r.conformal.laplace_weights = {};
-    if (!r.is_torus()) work.regions = zero_regions(r);
+    work.regions = zero_regions(r);
+    // A torus has no zero: its fans only re-triangulate folds, so that its sides can close.
+    if (r.is_torus()) std::erase_if(work.regions, [](const kernels::ZeroRegion& z) { return z.order > 0; });
 }
 
 // Zero fans on the traced surface (the form restricted to the first copy of a double cover).
@@ -210,8 +219,9 @@ void regularise(SegmentationWork& work) {
     const Eigen::VectorXcd tau = r.conformal.double_covered
                                      ? restrict_to_first_copy(traced, *r.conformal.surface, r.conformal.tau)
                                      : r.conformal.tau;
-    r.regular = r.is_torus() ? kernels::unregularised(traced, tau)  // its homology cut graph must stay
-                             : kernels::regularise_zeros(traced, tau, work.regions);
+    // A torus without folds keeps its mesh as it is (its homology cut graph with it).
+    r.regular = r.is_torus() && work.regions.empty() ? kernels::unregularised(traced, tau)
+                                                      : kernels::regularise_zeros(traced, tau, work.regions);
 }
 
 // The vertices within kFanZoneRings rings of the regions whose fans failed; none (the whole
@@ -299,19 +309,12 @@ void fans(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
     regularise(work);
-    if (r.is_torus()) {  // no zeros; the parallelogram made a rectangle (the paper's affine step)
-        const std::array<Complex, 2> period = generator_periods(r);
-        r.torus_periods = kernels::reduce_lattice(period[0], period[1]);
-        r.regular.tau = kernels::rectangle_form(r.regular.tau, r.torus_periods[0], r.torus_periods[1]);
-        clock.lap("zero_fans");
-        return;
-    }
     // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
-    // too few: a patch around it winds twice, or the form's uv folds there. The zeros get room
-    // on a refined surface: the midpoint subdivision while small (a tetrahedron's zeros need
-    // every face split), then rounds of bisection around the fans still failed; each is kept
-    // while fewer regions fail on it. Each try's conformal stages count as those stages (added
-    // to them), the rest as the fans'.
+    // too few: a patch around it winds twice, or the form's uv folds there (a torus's sides may
+    // not close across a failed fold). The regions get room on a refined surface: the midpoint
+    // subdivision while small (a tetrahedron's zeros need every face split), then rounds of
+    // bisection around the fans still failed; each is kept while fewer regions fail on it. Each
+    // try's conformal stages count as those stages (added to them), the rest as the fans'.
     StageTimes refined_conformal;
     const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined) {
         if (!refined) return false;
@@ -344,10 +347,15 @@ void fans(SegmentationWork& work) {
         if (bisected.n_faces() == r.traced_input->n_faces()) break;  // no edge split: the same solve again
         if (!keep_if_fewer_fail(on_refined_surface(std::move(bisected), try_options(), max_faces))) break;
     }
+    if (r.is_torus()) {  // no zeros; the parallelogram made a rectangle (the paper's affine step)
+        const std::array<Complex, 2> period = generator_periods(r);
+        r.torus_periods = kernels::reduce_lattice(period[0], period[1]);
+        r.regular.tau = kernels::rectangle_form(r.regular.tau, r.torus_periods[0], r.torus_periods[1]);
+    }
     const MeshView& traced = *r.traced_input;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;
 
-    // Starts: each zero's fan centre, or (fan failed) its cluster's best vertex.
+    // Starts (none on a torus): each zero's fan centre, or (fan failed) its cluster's best vertex.
     std::vector<Index> regular_of(traced.n_vertices(), -1);
     for (Index v = 0; v < r.regular.mesh.n_vertices(); ++v)
         if (r.regular.original_vertex[v] >= 0) regular_of[r.regular.original_vertex[v]] = v;
@@ -416,6 +424,27 @@ std::pair<MeshView, Eigen::VectorXcd> with_point_in_face(const MeshView& m, cons
     return {std::move(split), std::move(split_tau)};
 }
 
+// The face a torus's corner goes in: the first whose image is well shaped (quality
+// 4 sqrt(3) area / sum of squared sides at least 1/2, area at least half the mean), else the best
+// shaped. Not simply face 0: inside a cluster of faces whose images collapse onto a point
+// (dancer_25k), the sides leave the corner along a path of no length and, coming round again,
+// pass beside the cluster instead of through the corner.
+Index corner_face(const MeshView& mesh, const Eigen::VectorXcd& tau) {
+    std::vector<double> area(mesh.n_faces()), quality(mesh.n_faces());
+    double total = 0;
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        const Complex a = kernels::form_along(mesh, tau, 3 * f), b = kernels::form_along(mesh, tau, 3 * f + 1);
+        const double squares = std::norm(a) + std::norm(b) + std::norm(a + b);
+        area[f] = 0.5 * kernels::cross(a, a + b);
+        quality[f] = squares > 0 ? 4 * std::sqrt(3.0) * area[f] / squares : 0;
+        total += area[f];
+    }
+    const double mean = total / static_cast<double>(mesh.n_faces());
+    for (Index f = 0; f < mesh.n_faces(); ++f)
+        if (quality[f] >= 0.5 && area[f] >= 0.5 * mean) return f;
+    return static_cast<Index>(std::max_element(quality.begin(), quality.end()) - quality.begin());
+}
+
 // The torus's rectangle sides: the vertical and the horizontal line through `corner`, each
 // closing after one period; none unless both close there (rounding, folds of the form).
 std::vector<Trajectory> torus_sides(const MeshView& mesh, const Eigen::VectorXcd& tau, Index corner,
@@ -444,18 +473,19 @@ void trace(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
     if (r.is_torus()) {
-        // The corner is a point inside face 0, away from the mesh's vertex rows: on a symmetric
+        // The corner is a point inside a face, away from the mesh's vertex rows: on a symmetric
         // mesh the lines through a vertex run through other vertices and the cut would leave
         // slivers. (Where the form folds, the lines may not make one disk: see cut.)
-        auto [mesh, tau] = with_point_in_face(r.regular.mesh, r.regular.tau, 0, {0.30711, 0.32735, 0.36554});
+        const Index face = corner_face(r.regular.mesh, r.regular.tau);
+        auto [mesh, tau] = with_point_in_face(r.regular.mesh, r.regular.tau, face, {0.30711, 0.32735, 0.36554});
         const Index corner = mesh.n_vertices() - 1;
         r.trajectories = torus_sides(mesh, tau, corner, r.torus_periods);
-        if (!r.trajectories.empty()) {  // the regularised mesh gets the corner and face 0's pieces
+        if (!r.trajectories.empty()) {  // the regularised mesh gets the corner and its face's pieces
             kernels::RegularisedForm& reg = r.regular;
             reg.mesh = std::move(mesh);
             reg.tau = std::move(tau);
             reg.original_vertex.push_back(-1);
-            reg.original_face.insert(reg.original_face.end(), 2, reg.original_face[0]);
+            reg.original_face.insert(reg.original_face.end(), 2, reg.original_face[face]);
         }
         clock.lap("tracing");
         return;
