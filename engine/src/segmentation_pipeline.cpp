@@ -31,9 +31,11 @@ constexpr int kFanZoneRings = 4;
 // this many faces (oblong's slivers: 17x),
 constexpr Index kMaxFanRefinementGrowth = 8;
 constexpr Index kFanRefinementFaces = 100000;
-// and first subdivided (midpoint) while that stays this small (a second step cost
-// oblong-shuffled 25x its time and still left a region failed).
+// and first subdivided (midpoint) where that stays this small, a second time where regions
+// still fail then (elephant-with-holes, hexagonal holes two edges apart: 54 failed, 8 after one
+// step, 4 after two), each step kept only where fewer fail.
 constexpr Index kMaxMidpointRefinedFaces = 20000;
+constexpr int kMidpointRefinements = 2;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -311,8 +313,8 @@ void fans(SegmentationWork& work) {
     regularise(work);
     // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
     // too few: a patch around it winds twice, or the form's uv folds there (a torus's sides may
-    // not close across a failed fold). The regions get room on a refined surface: the midpoint
-    // subdivision while small (a tetrahedron's zeros need every face split), then rounds of
+    // not close across a failed fold). The regions get room on a refined surface: midpoint
+    // subdivisions while small (a tetrahedron's zeros need every face split), then rounds of
     // bisection around the fans still failed; each is kept while fewer regions fail on it. Each
     // try's conformal stages count as those stages (added to them), the rest as the fans'.
     StageTimes refined_conformal;
@@ -340,8 +342,9 @@ void fans(SegmentationWork& work) {
         if (limit > 0) limit = limit > held ? limit - held : 1;
         return o;
     };
-    if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
-        keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces));
+    if (4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
+        for (int step = 0; step < kMidpointRefinements && rounds > 0 && r.regular.failed_regions > 0; ++step)
+            if (!keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces))) break;
     for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
         MeshView bisected = bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular));
         if (bisected.n_faces() == r.traced_input->n_faces()) break;  // no edge split: the same solve again
