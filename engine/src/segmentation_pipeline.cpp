@@ -89,6 +89,12 @@ std::vector<Index> homology_cut_labels(const SegmentationResult& r) {
     return label;
 }
 
+Index flipped_uv_triangles(const kernels::Patches& patches) {
+    Index flipped = 0;
+    for (const kernels::PatchInfo& p : patches.info) flipped += p.flipped_uv_triangles;
+    return flipped;
+}
+
 // Clusters of the working surface as regions of the traced surface. On a double cover only the
 // clusters that reach the first copy count (the others are their mirrors); mirrored vertices
 // fold back onto the first copy.
@@ -538,6 +544,25 @@ void cut(SegmentationWork& work) {
     // Where the form's uv folds (zero regions the fans could not regularise), a valid uv on
     // the same rectangle instead; reported per patch.
     r.patches = kernels::repair_folded_patches(r.cut.mesh, border, std::move(r.patches));
+    // A torus whose sides cut a disk the repair could not lay out without flips (rounding where
+    // a fold the fans left spans long limbs: dancer_25k stretched 2.5 : 0.6) tries its homology
+    // cut too, and keeps the layout with fewer flipped uv triangles (the sides' on ties).
+    if (r.is_torus() && !r.trajectories.empty() && flipped_uv_triangles(r.patches) > 0) {
+        std::vector<Trajectory> sides = std::move(r.trajectories);
+        kernels::CutMesh side_cut = std::move(r.cut);
+        kernels::Patches side_patches = std::move(r.patches);
+        std::vector<char> side_border = std::move(border);
+        r.trajectories.clear();
+        extra_border = homology_cut_labels(r);
+        cut_and_fill();
+        r.patches = kernels::repair_folded_patches(r.cut.mesh, border, std::move(r.patches));
+        if (flipped_uv_triangles(r.patches) >= flipped_uv_triangles(side_patches)) {
+            r.trajectories = std::move(sides);
+            r.cut = std::move(side_cut);
+            r.patches = std::move(side_patches);
+            border = std::move(side_border);
+        }
+    }
     std::vector<char> is_zero(r.cut.mesh.n_vertices(), 0);
     for (Index v : r.zero_vertices) is_zero[v] = 1;  // the cut keeps the traced mesh's vertex ids
     r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);

@@ -426,7 +426,21 @@ TEST(Segmentation, TorusFoldsAreRegularisedAndItsSidesClose) {
     const std::string dancer = test::shared_mesh("dancer_25k.off");
     if (!std::filesystem::exists(dancer)) GTEST_SKIP() << "../shared/meshes not present";
     SCOPED_TRACE("dancer_25k");
-    check(segment(*engine::load_mesh(dancer).mesh));
+    const std::shared_ptr<const MeshView> mesh = engine::load_mesh(dancer).mesh;
+    check(segment(*mesh));
+    // Turned and stretched 1 : 2.5 : 0.6 (bench/variants.py's aniso copy), two folds fail; the
+    // sides still close, but the repair of their disk left 245 flipped uv triangles (rounding
+    // along the limbs), that of the homology cut none: the torus keeps the one with fewer.
+    const double c = std::cos(0.7), s = std::sin(0.7);
+    PointMatrix V(mesh->n_vertices(), 3);
+    for (Index v = 0; v < mesh->n_vertices(); ++v) {
+        const double x = mesh->V(v, 0), y = mesh->V(v, 1), z = mesh->V(v, 2);
+        V.row(v) << c * x - s * y, 2.5 * (s * x + c * y), 0.6 * z;
+    }
+    const SegmentationResult aniso = segment(make_mesh_view(std::move(V), mesh->F));
+    EXPECT_GT(aniso.regular.failed_regions, 0);
+    ASSERT_EQ(aniso.patches.info.size(), 1u);
+    EXPECT_EQ(flipped(aniso), 0);
 }
 
 TEST(Segmentation, GenusZeroIsSlicedAtItsTips) {
