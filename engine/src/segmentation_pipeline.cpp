@@ -31,11 +31,10 @@ constexpr int kFanZoneRings = 4;
 // this many faces (oblong's slivers: 17x),
 constexpr Index kMaxFanRefinementGrowth = 8;
 constexpr Index kFanRefinementFaces = 100000;
-// and first subdivided (midpoint) where that stays this small, a second time where regions
-// still fail then (elephant-with-holes, hexagonal holes two edges apart: 54 failed, 8 after one
-// step, 4 after two), each step kept only where fewer fail.
+// and first subdivided (midpoint) where that stays this small; a second midpoint step then
+// competes with the first bisection round (elephant-with-holes, hexagonal holes two edges
+// apart: 54 failed, 8 after one step, 4 after two, 7 after a bisection instead).
 constexpr Index kMaxMidpointRefinedFaces = 20000;
-constexpr int kMidpointRefinements = 2;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -324,10 +323,16 @@ void fans(SegmentationWork& work) {
     // bisection around the fans still failed; each is kept while fewer regions fail on it. Each
     // try's conformal stages count as those stages (added to them), the rest as the fans'.
     StageTimes refined_conformal;
+    const auto tried = [&](const std::optional<SegmentationWork>& refined) {
+        if (refined) add_stage_times(refined_conformal, refined->result.conformal.timings_ms);
+    };
+    // Kept where fewer regions fail and no artifact is new (a CAD mesh's small part, midpoint
+    // subdivided twice, placed every fan but broke the maximum principle twice).
     const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined) {
         if (!refined) return false;
-        add_stage_times(refined_conformal, refined->result.conformal.timings_ms);
-        if (refined->result.regular.failed_regions >= r.regular.failed_regions) return false;
+        if (refined->result.regular.failed_regions >= r.regular.failed_regions ||
+            refined->result.zeros.artifact_clusters > r.zeros.artifact_clusters)
+            return false;
         SegmentationResult& f = refined->result;
         r.traced_input = std::move(f.traced_input);
         r.conformal = std::move(f.conformal);
@@ -348,13 +353,29 @@ void fans(SegmentationWork& work) {
         if (limit > 0) limit = limit > held ? limit - held : 1;
         return o;
     };
-    if (4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
-        for (int step = 0; step < kMidpointRefinements && rounds > 0 && r.regular.failed_regions > 0; ++step)
-            if (!keep_if_fewer_fail(on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces))) break;
+    const auto midpoint_try = [&] {
+        std::optional<SegmentationWork> refined =
+            on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces);
+        tried(refined);
+        return refined;
+    };
+    bool subdivided = false;
+    if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
+        subdivided = keep_if_fewer_fail(midpoint_try());
     for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
         MeshView bisected = bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular));
-        if (bisected.n_faces() == r.traced_input->n_faces()) break;  // no edge split: the same solve again
-        if (!keep_if_fewer_fail(on_refined_surface(std::move(bisected), try_options(), max_faces))) break;
+        std::optional<SegmentationWork> next;
+        if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
+            next = on_refined_surface(std::move(bisected), try_options(), max_faces);
+        tried(next);
+        // After a midpoint step, a second one competes with the first bisection round; it is
+        // kept only where fewer regions fail on it (it adds more faces).
+        if (round == 0 && subdivided) {
+            std::optional<SegmentationWork> twice = midpoint_try();
+            if (twice && (!next || twice->result.regular.failed_regions < next->result.regular.failed_regions))
+                next = std::move(twice);
+        }
+        if (!keep_if_fewer_fail(std::move(next))) break;
     }
     if (r.is_torus()) {  // no zeros; the parallelogram made a rectangle (the paper's affine step)
         const std::array<Complex, 2> period = generator_periods(r);

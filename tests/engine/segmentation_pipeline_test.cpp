@@ -162,18 +162,19 @@ TEST(Segmentation, FailedZeroFansAreRetriedOnTheRefinedMesh) {
     EXPECT_EQ(segment(*test::corpus_mesh("eight")).fan_refinements, 0);
 }
 
-// A small mesh whose fans still fail after one midpoint subdivision gets a second one:
-// elephant-with-holes (4463 faces, 106 holes, most of them hexagons two edges apart, two zeros
-// on each) had 54 failed fans, 8 after one step, 4 after two (3 after a bisection round), and
+// A small mesh whose fans still fail after one midpoint subdivision gets a second one where
+// fewer fail on it than after a bisection round: elephant-with-holes (4463 faces, 106 holes,
+// most of them hexagons two edges apart, two zeros on each) had 54 failed fans, 8 after one
+// step, then 4 after a second (7 after a bisection instead) and 3 after a bisection round, and
 // left a patch winding around a zero traced as a regular point (rectangle error 0.18).
 TEST(Segmentation, SmallMeshWithManyHolesIsSubdividedTwice) {
     const std::shared_ptr<const MeshView> input = test::corpus_mesh("elephant-with-holes");
     SegmentOptions options;
-    options.fan_refinement_rounds = 1;
+    options.fan_refinement_rounds = 2;  // the third round (the default) fails more: not kept
     const SegmentationResult r = segment(*input, options);
     EXPECT_EQ(r.fan_refinements, 3);
-    EXPECT_GE(r.traced_input->n_faces(), 16 * input->n_faces());
-    EXPECT_LE(r.regular.failed_regions, 4);
+    EXPECT_GT(r.traced_input->n_faces(), 16 * input->n_faces());
+    EXPECT_LE(r.regular.failed_regions, 3);
     EXPECT_EQ(flipped(r), 0);
     EXPECT_LE(rectangle_error(r), 1e-4);  // repaired sides bulge by 1e-4
 }
