@@ -368,9 +368,9 @@ void fans(SegmentationWork& work) {
         if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
             next = on_refined_surface(std::move(bisected), try_options(), max_faces);
         tried(next);
-        // After a midpoint step, a second one competes with the first bisection round; it is
-        // kept only where fewer regions fail on it (it adds more faces).
-        if (round == 0 && subdivided) {
+        // After a midpoint step, a second one competes with a first bisection round that left
+        // regions failed; it is kept only where fewer fail on it (it adds more faces).
+        if (round == 0 && subdivided && (!next || next->result.regular.failed_regions > 0)) {
             std::optional<SegmentationWork> twice = midpoint_try();
             if (twice && (!next || twice->result.regular.failed_regions < next->result.regular.failed_regions))
                 next = std::move(twice);
