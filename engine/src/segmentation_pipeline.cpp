@@ -32,8 +32,9 @@ constexpr int kFanZoneRings = 4;
 constexpr Index kMaxFanRefinementGrowth = 8;
 constexpr Index kFanRefinementFaces = 100000;
 // and first subdivided (midpoint) where that stays this small; a second midpoint step then
-// competes with the first bisection round (elephant-with-holes, hexagonal holes two edges
-// apart: 54 failed, 8 after one step, 4 after two, 7 after a bisection instead).
+// competes with a first bisection round that leaves regions failed (elephant-with-holes,
+// hexagonal holes two edges apart: 54 failed, 8 after one step, 4 after two, 7 after a
+// bisection instead).
 constexpr Index kMaxMidpointRefinedFaces = 20000;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
