@@ -221,15 +221,15 @@ void locate_zeros(SegmentationWork& work) {
 }
 
 // Zero fans on the traced surface (the form restricted to the first copy of a double cover).
-void regularise(SegmentationWork& work) {
-    SegmentationResult& r = work.result;
+kernels::RegularisedForm regularised(const SegmentationWork& work, const kernels::FanOptions& options = {}) {
+    const SegmentationResult& r = work.result;
     const MeshView& traced = *r.traced_input;
     const Eigen::VectorXcd tau = r.conformal.double_covered
                                      ? restrict_to_first_copy(traced, *r.conformal.surface, r.conformal.tau)
                                      : r.conformal.tau;
     // A torus without folds keeps its mesh as it is (its homology cut graph with it).
-    r.regular = r.is_torus() && work.regions.empty() ? kernels::unregularised(traced, tau)
-                                                      : kernels::regularise_zeros(traced, tau, work.regions);
+    return r.is_torus() && work.regions.empty() ? kernels::unregularised(traced, tau)
+                                                 : kernels::regularise_zeros(traced, tau, work.regions, options);
 }
 
 // The vertices within kFanZoneRings rings of the regions whose fans failed; none (the whole
@@ -291,7 +291,7 @@ std::optional<SegmentationWork> on_refined_surface(MeshView surface, const Segme
         refined.conformal = conformal_stage::prepare(refined.result.traced_input, options.conformal, &topology);
         conformal_stage::run_after_prepare(refined.conformal, nullptr);  // a new pattern: no cache
         locate_zeros(refined);
-        regularise(refined);
+        refined.result.regular = regularised(refined);
     } catch (const InvalidInput&) {
         return std::nullopt;
     } catch (const SolverFailure&) {
@@ -316,7 +316,7 @@ void zeros(SegmentationWork& work) {
 void fans(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
-    regularise(work);
+    r.regular = regularised(work);
     // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
     // too few: a patch around it winds twice, or the form's uv folds there (a torus's sides may
     // not close across a failed fold). The regions get room on a refined surface: midpoint
@@ -377,6 +377,17 @@ void fans(SegmentationWork& work) {
                 next = std::move(twice);
         }
         if (!keep_if_fewer_fail(std::move(next))) break;
+    }
+    // Where regions still fail, they may grow once more from their irregular vertices only
+    // (kernels::FanOptions::regrow_failed), kept where fewer fail. Only here, on the surface
+    // the refinements chose: as what a region takes changes what the later ones find, it
+    // can fail more elsewhere, and a surface that it makes look better can stop refinements
+    // that would have placed every fan (polygon_mesh: 3 failed regions left instead of none).
+    if (r.regular.failed_regions > 0) {
+        kernels::FanOptions regrow;
+        regrow.regrow_failed = true;
+        kernels::RegularisedForm regrown = regularised(work, regrow);
+        if (regrown.failed_regions < r.regular.failed_regions) r.regular = std::move(regrown);
     }
     if (r.is_torus()) {  // no zeros; the parallelogram made a rectangle (the paper's affine step)
         const std::array<Complex, 2> period = generator_periods(r);

@@ -189,8 +189,8 @@ struct Diagnosis {
 
 class Builder {
  public:
-    Builder(const Triangles& mesh, std::span<const ZeroRegion> regions)
-        : mesh_(mesh), regions_(regions), vf_(mesh), along_(mesh.along),
+    Builder(const Triangles& mesh, std::span<const ZeroRegion> regions, const FanOptions& options)
+        : mesh_(mesh), regions_(regions), options_(options), vf_(mesh), along_(mesh.along),
           zero_vertex_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0),
           owner_(mesh.n_faces(), -1), mark_(mesh.n_faces(), 0), stamp_(mesh.n_vertices(), -1),
           chain_stamp_(mesh.n_vertices(), -1), candidate_stamp_(mesh.n_vertices(), -1), image_(mesh.n_vertices()), origin_(mesh.n_faces()),
@@ -222,13 +222,17 @@ class Builder {
                 if ((groups[r].order > 0) != zeros_pass || groups[r].absorbed_into >= 0 || groups[r].accepted)
                     continue;
                 // A region that fails leaves the others as they were (it may have taken some in):
-                // it and the groups it absorbed get their state and faces back.
-                undo_.assign(1, {static_cast<Index>(r), groups[r]});
-                if (!solve(groups, static_cast<Index>(r), pass == 2))
+                // it and the groups it absorbed get their state and faces back. Then it may grow
+                // once more from its irregular vertices only (FanOptions::regrow_failed).
+                for (const bool special_seeds : {false, true}) {
+                    if (special_seeds && !(options_.regrow_failed && has_regular_seeds(groups[r]))) break;
+                    undo_.assign(1, {static_cast<Index>(r), groups[r]});
+                    if (solve(groups, static_cast<Index>(r), pass == 2, special_seeds)) break;
                     for (auto& [o, saved] : undo_) {
                         groups[o] = std::move(saved);
                         for (Index f : groups[o].result.faces) owner_[f] = o;
                     }
+                }
             }
         }
         return groups;
@@ -272,9 +276,9 @@ class Builder {
         for (std::size_t g = 0; g < groups.size(); ++g) normalise(groups[g].seed_faces);
     }
 
-    bool solve(std::vector<Group>& groups, Index g, bool merge_zeros) {
+    bool solve(std::vector<Group>& groups, Index g, bool merge_zeros, bool special_seeds) {
         std::vector<Index> faces = groups[g].seed_faces;
-        for (Index r : groups[g].members) add_seeds(regions_[r], faces);
+        for (Index r : groups[g].members) add_seeds(regions_[r], special_seeds, faces);
         normalise(faces);
         if (!merge_zeros && already_regular(groups, g, faces)) return true;
         if (merge_zeros) take_tangle(groups, g, faces);
@@ -348,6 +352,17 @@ class Builder {
         normalise(faces);
     }
 
+    // Some member's cluster has a vertex where the image is regular.
+    bool has_regular_seeds(const Group& group) const {
+        for (Index r : group.members)
+            for (Index v : regions_[r].vertices)
+                if (v != regions_[r].vertex && !irregular(v)) return true;
+        return false;
+    }
+
+    // A flip around v, or a winding other than 1 (half-turns on the boundary).
+    bool irregular(Index v) const { return special(v) || (boundary_[v] && winding_[v] != 1); }
+
     // A flip around v, or (inside the mesh) a winding other than 1.
     bool special(Index v) const {
         if (!boundary_[v] && winding_[v] != 1) return true;
@@ -373,8 +388,12 @@ class Builder {
         other.result = Retriangulation{};
     }
 
-    void add_seeds(const ZeroRegion& region, std::vector<Index>& faces) const {
-        std::vector<Index> seeds = region.vertices;
+    // The stars of the region's vertices (its zero, its cluster) and its face; with
+    // `special_seeds`, of only the cluster vertices where the image is not regular.
+    void add_seeds(const ZeroRegion& region, bool special_seeds, std::vector<Index>& faces) const {
+        std::vector<Index> seeds;
+        for (Index v : region.vertices)
+            if (!special_seeds || irregular(v)) seeds.push_back(v);
         if (region.vertex >= 0) seeds.push_back(region.vertex);
         if (region.face >= 0)
             for (int k = 0; k < 3; ++k) seeds.push_back(mesh_.F(region.face, k));
@@ -972,6 +991,7 @@ class Builder {
 
     const Triangles& mesh_;
     std::span<const ZeroRegion> regions_;
+    const FanOptions options_;
     VertexFaces vf_;
     const std::vector<Complex>& along_;
     std::vector<int> flip_, winding_;
@@ -1062,9 +1082,9 @@ Flipped flip_folds(const MeshView& mesh, std::vector<Complex> along, const std::
     return out;
 }
 
-RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion> regions) {
+RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion> regions, const FanOptions& options) {
     RegularisedForm out;
-    Builder builder(mesh, regions);
+    Builder builder(mesh, regions, options);
     const std::vector<Group> groups = builder.run();
     const std::vector<Complex>& along = mesh.along;
     std::vector<Index> accepted;
@@ -1209,7 +1229,7 @@ RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion>
 }  // namespace
 
 RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau,
-                                 std::span<const ZeroRegion> regions) {
+                                 std::span<const ZeroRegion> regions, const FanOptions& options) {
     HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
     for (const ZeroRegion& r : regions) {
         for (Index v : r.vertices) HOLOFLOW_REQUIRE(v >= 0 && v < mesh.n_vertices(), "region vertex out of range");
@@ -1224,9 +1244,9 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     std::vector<Complex> along(mesh.n_halfedges());
     for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
     const Flipped flipped = flip_folds(mesh, std::move(along), keep);
-    if (flipped.flips == 0) return regularise_on(Triangles{mesh.V, mesh.F, mesh.twin, flipped.along}, regions);
+    if (flipped.flips == 0) return regularise_on(Triangles{mesh.V, mesh.F, mesh.twin, flipped.along}, regions, options);
     // Flips keep vertex and face ids and never touch a kept face: the regions hold as given.
-    RegularisedForm out = regularise_on(Triangles{mesh.V, flipped.F, flipped.twin, flipped.along}, regions);
+    RegularisedForm out = regularise_on(Triangles{mesh.V, flipped.F, flipped.twin, flipped.along}, regions, options);
     for (Index& f : out.original_face)
         if (f >= 0) f = flipped.original_face[f];
     out.edge_flips = flipped.flips;

@@ -177,6 +177,15 @@ TEST(Segmentation, SmallMeshWithManyHolesIsSubdividedTwice) {
     EXPECT_LE(r.regular.failed_regions, 3);
     EXPECT_EQ(flipped(r), 0);
     EXPECT_LE(rectangle_error(r), 1e-4);  // repaired sides bulge by 1e-4
+    // Unrefined, the regions that failed grow again from their cluster vertices where the image
+    // is not regular (clusters whose saddles lie on the boundary loops of several holes touch
+    // the boundary along more than one arc): 54 -> 39 failed.
+    SegmentOptions unrefined;
+    unrefined.fan_refinement_rounds = 0;
+    const SegmentationResult level0 = segment(*input, unrefined);
+    EXPECT_LE(level0.regular.failed_regions, 39);
+    EXPECT_EQ(level0.zeros.total_order, 2 * level0.conformal.basis.genus - 2);
+    EXPECT_EQ(flipped(level0), 0);
 }
 
 // Larger meshes get room by longest-edge bisection around the failed fans (slivers cut

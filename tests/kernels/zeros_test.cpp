@@ -344,7 +344,9 @@ TEST(Zeros, ImageTurnsAreTheRoundedAngleSums) {
         }
         for (Index v = 0; v < m.n_vertices(); ++v)
             EXPECT_EQ(turns.turns[v], std::lround(total[v] / ((boundary[v] ? 1 : 2) * std::numbers::pi))) << "vertex " << v;
-        if (trial == 1) EXPECT_GT(flipped, 0);  // the sweep holds folds, not only clean images
+        if (trial == 1) {
+            EXPECT_GT(flipped, 0);  // the sweep holds folds, not only clean images
+        }
     }
 }
 

@@ -21,6 +21,15 @@ struct ZeroRegion {
     std::complex<double> image_offset{};  //!< image minus image of F(face, 0) (face zeros)
 };
 
+struct FanOptions {
+    //! A region that fails grows once more from only the cluster vertices where the image is not
+    //! regular (a flip around, a winding other than 1): a cluster counts saddles of Re, which
+    //! may lie where the image is regular, and next to small holes on several boundary loops,
+    //! which a region touching the boundary along more than one arc cannot be re-triangulated
+    //! around. What a region takes changes what the later ones find, so this can also fail more.
+    bool regrow_failed = false;
+};
+
 //! The mesh with each cluster's star re-triangulated as a fan around one vertex at the zero.
 struct RegularisedForm {
     MeshView mesh;
@@ -58,7 +67,7 @@ struct RegularisedForm {
 //! the developed image difference (closed). Deterministic.
 //! \pre tau closed, #E values; regions' vertices valid.  \throw InvalidInput.
 RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau,
-                                 std::span<const ZeroRegion> regions);
+                                 std::span<const ZeroRegion> regions, const FanOptions& options = {});
 
 //! The mesh and form as they are (identity vertex and face maps, no flips, no fans), its
 //! flipped image triangles counted: for a surface that must keep its edges (a torus opens along
