@@ -317,8 +317,8 @@ void fans(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
     r.regular = regularised(work);
-    // A zero whose fan failed is traced from a nearby vertex with the curves of a regular point,
-    // too few: a patch around it winds twice, or the form's uv folds there (a torus's sides may
+    // A zero whose fan failed is traced from a vertex of its tangled image, with the curves
+    // found there: a patch around it may wind twice, or the form's uv fold (a torus's sides may
     // not close across a failed fold). The regions get room on a refined surface: midpoint
     // subdivisions while small (a tetrahedron's zeros need every face split), then rounds of
     // bisection around the fans still failed; each is kept while fewer regions fail on it. Each
@@ -397,10 +397,22 @@ void fans(SegmentationWork& work) {
     const MeshView& traced = *r.traced_input;
     const std::vector<kernels::ZeroRegion>& regions = work.regions;
 
-    // Starts (none on a torus): each zero's fan centre, or (fan failed) its cluster's best vertex.
+    // Starts (none on a torus): each zero's fan centre, or (fan failed) its cluster's vertex
+    // that turns most in the image (its curves are the ones the tracer finds there: a regular
+    // point sends too few), the zero's saddle vertex first on ties.
     std::vector<Index> regular_of(traced.n_vertices(), -1);
     for (Index v = 0; v < r.regular.mesh.n_vertices(); ++v)
         if (r.regular.original_vertex[v] >= 0) regular_of[r.regular.original_vertex[v]] = v;
+    std::vector<int> turns;  // of the regularised mesh's image, where some region failed
+    if (r.regular.failed_regions > 0) {
+        const MeshView& m = r.regular.mesh;
+        std::vector<Complex> along(m.n_halfedges());
+        for (Index h = 0; h < m.n_halfedges(); ++h) along[h] = kernels::form_along(m, r.regular.tau, h);
+        std::vector<char> boundary(m.n_vertices(), 0);
+        for (Index h = 0; h < m.n_halfedges(); ++h)
+            if (m.twin[h] == kNoHalfedge) boundary[m.tail(h)] = boundary[m.head(h)] = 1;
+        turns = kernels::image_turns(m.F, m.n_vertices(), along, boundary).turns;
+    }
     for (std::size_t i = 0; i < regions.size(); ++i) {
         if (regions[i].order <= 0) continue;
         Index v = r.regular.region_vertex[i];
@@ -409,8 +421,10 @@ void fans(SegmentationWork& work) {
                                    : regions[i].face >= 0 ? traced.F(regions[i].face, 0)
                                                           : regions[i].vertices.front();
             v = regular_of[fallback];
+            for (Index u : regions[i].vertices)
+                if (const Index w = regular_of[u]; w >= 0 && (v < 0 || turns[w] > turns[v])) v = w;
         }
-        if (v < 0) continue;
+        if (v < 0 || std::find(r.zero_vertices.begin(), r.zero_vertices.end(), v) != r.zero_vertices.end()) continue;
         r.zero_vertices.push_back(v);
     }
     clock.lap("zero_fans");
