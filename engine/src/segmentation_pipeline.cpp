@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <utility>
 
@@ -408,9 +409,8 @@ void fans(SegmentationWork& work) {
         const MeshView& m = r.regular.mesh;
         std::vector<Complex> along(m.n_halfedges());
         for (Index h = 0; h < m.n_halfedges(); ++h) along[h] = kernels::form_along(m, r.regular.tau, h);
-        std::vector<char> boundary(m.n_vertices(), 0);
-        for (Index h = 0; h < m.n_halfedges(); ++h)
-            if (m.twin[h] == kNoHalfedge) boundary[m.tail(h)] = boundary[m.head(h)] = 1;
+        std::vector<char> boundary(m.n_vertices());  // half-turns there, as the fans count them
+        for (Index v = 0; v < m.n_vertices(); ++v) boundary[v] = m.is_boundary_halfedge(m.vertex_halfedge[v]);
         turns = kernels::image_turns(m.F, m.n_vertices(), along, boundary).turns;
     }
     for (std::size_t i = 0; i < regions.size(); ++i) {
@@ -424,7 +424,7 @@ void fans(SegmentationWork& work) {
             for (Index u : regions[i].vertices)
                 if (const Index w = regular_of[u]; w >= 0 && (v < 0 || turns[w] > turns[v])) v = w;
         }
-        if (v < 0 || std::find(r.zero_vertices.begin(), r.zero_vertices.end(), v) != r.zero_vertices.end()) continue;
+        if (v < 0) continue;  // a vertex listed twice starts its curves once (trace_trajectories)
         r.zero_vertices.push_back(v);
     }
     clock.lap("zero_fans");
@@ -486,19 +486,23 @@ std::pair<MeshView, Eigen::VectorXcd> with_point_in_face(const MeshView& m, cons
 // (dancer_25k), the sides leave the corner along a path of no length and, coming round again,
 // pass beside the cluster instead of through the corner.
 Index corner_face(const MeshView& mesh, const Eigen::VectorXcd& tau) {
-    std::vector<double> area(mesh.n_faces()), quality(mesh.n_faces());
-    double total = 0;
-    for (Index f = 0; f < mesh.n_faces(); ++f) {
+    const auto image_area = [&](Index f) {
         const Complex a = kernels::form_along(mesh, tau, 3 * f), b = kernels::form_along(mesh, tau, 3 * f + 1);
         const double squares = std::norm(a) + std::norm(b) + std::norm(a + b);
-        area[f] = 0.5 * kernels::cross(a, a + b);
-        quality[f] = squares > 0 ? 4 * std::sqrt(3.0) * area[f] / squares : 0;
-        total += area[f];
-    }
+        const double area = 0.5 * kernels::cross(a, a + b);
+        return std::pair{area, squares > 0 ? 4 * std::sqrt(3.0) * area / squares : 0.0};  // and quality
+    };
+    double total = 0;
+    for (Index f = 0; f < mesh.n_faces(); ++f) total += image_area(f).first;
     const double mean = total / static_cast<double>(mesh.n_faces());
-    for (Index f = 0; f < mesh.n_faces(); ++f)
-        if (quality[f] >= 0.5 && area[f] >= 0.5 * mean) return f;
-    return static_cast<Index>(std::max_element(quality.begin(), quality.end()) - quality.begin());
+    Index best = 0;
+    double best_quality = -std::numeric_limits<double>::infinity();
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        const auto [area, quality] = image_area(f);
+        if (quality >= 0.5 && area >= 0.5 * mean) return f;
+        if (quality > best_quality) best = f, best_quality = quality;
+    }
+    return best;
 }
 
 // The torus's rectangle sides: the vertical and the horizontal line through `corner`, each
@@ -568,15 +572,17 @@ void cut(SegmentationWork& work) {
         for (Index e = 0; e < r.cut.mesh.n_edges(); ++e) border[e] = r.cut.edge_trajectory[e] != kernels::kNoBorder;
         r.patches = kernels::compute_patches(r.cut.mesh, r.cut.tau, border);
     };
+    const auto open_along_homology_cut = [&] {
+        r.trajectories.clear();
+        extra_border = homology_cut_labels(r);
+        cut_and_fill();
+    };
     cut_and_fill();
     // A torus whose sides did not close, or cut it into anything but one disk (a fold of the
     // form they crossed), opens along its homology cut graph instead.
     if (r.is_torus() && (r.trajectories.empty() || r.cut.skipped_segments > 0 || r.patches.info.size() != 1 ||
-                         r.patches.info[0].type != kernels::PatchInfo::Type::Disk)) {
-        r.trajectories.clear();
-        extra_border = homology_cut_labels(r);
-        cut_and_fill();
-    }
+                         r.patches.info[0].type != kernels::PatchInfo::Type::Disk))
+        open_along_homology_cut();
     // Layout mode promises rectangles. A cylinder (closed curves that no critical trajectory
     // crosses) is opened by the transversal through a vertex inside it, and the cut redone.
     for (int round = 0; round < kCylinderRounds && work.options.mode == SegmentMode::Layout && !r.is_torus(); ++round) {
@@ -599,9 +605,7 @@ void cut(SegmentationWork& work) {
         kernels::CutMesh side_cut = std::move(r.cut);
         kernels::Patches side_patches = std::move(r.patches);
         std::vector<char> side_border = std::move(border);
-        r.trajectories.clear();
-        extra_border = homology_cut_labels(r);
-        cut_and_fill();
+        open_along_homology_cut();
         r.patches = kernels::repair_folded_patches(r.cut.mesh, border, std::move(r.patches));
         if (flipped_uv_triangles(r.patches) >= flipped_uv_triangles(side_patches)) {
             r.trajectories = std::move(sides);

@@ -221,18 +221,10 @@ class Builder {
                 const bool zeros_pass = pass == 0 || pass == 2;
                 if ((groups[r].order > 0) != zeros_pass || groups[r].absorbed_into >= 0 || groups[r].accepted)
                     continue;
-                // A region that fails leaves the others as they were (it may have taken some in):
-                // it and the groups it absorbed get their state and faces back. Then it may grow
-                // once more from its irregular vertices only (FanOptions::regrow_failed).
-                for (const bool special_seeds : {false, true}) {
-                    if (special_seeds && !(options_.regrow_failed && has_regular_seeds(groups[r]))) break;
-                    undo_.assign(1, {static_cast<Index>(r), groups[r]});
-                    if (solve(groups, static_cast<Index>(r), pass == 2, special_seeds)) break;
-                    for (auto& [o, saved] : undo_) {
-                        groups[o] = std::move(saved);
-                        for (Index f : groups[o].result.faces) owner_[f] = o;
-                    }
-                }
+                // A failed region may grow once more from its irregular vertices only.
+                const Index g = static_cast<Index>(r);
+                if (!solve_or_undo(groups, g, pass == 2, false) && options_.regrow_failed && has_regular_seeds(groups[g]))
+                    solve_or_undo(groups, g, pass == 2, true);
             }
         }
         return groups;
@@ -274,6 +266,18 @@ class Builder {
             for (int k = 0; k < 3; ++k) star(mesh_.F(seeds[i], k), groups[g].seed_faces);
         }
         for (std::size_t g = 0; g < groups.size(); ++g) normalise(groups[g].seed_faces);
+    }
+
+    // A region that fails leaves the others as they were (it may have taken some in): it and
+    // the groups it absorbed get their state and faces back.
+    bool solve_or_undo(std::vector<Group>& groups, Index g, bool merge_zeros, bool special_seeds) {
+        undo_.assign(1, {g, groups[g]});
+        if (solve(groups, g, merge_zeros, special_seeds)) return true;
+        for (auto& [o, saved] : undo_) {
+            groups[o] = std::move(saved);
+            for (Index f : groups[o].result.faces) owner_[f] = o;
+        }
+        return false;
     }
 
     bool solve(std::vector<Group>& groups, Index g, bool merge_zeros, bool special_seeds) {
@@ -361,7 +365,7 @@ class Builder {
     }
 
     // A flip around v, or a winding other than 1 (half-turns on the boundary).
-    bool irregular(Index v) const { return special(v) || (boundary_[v] && winding_[v] != 1); }
+    bool irregular(Index v) const { return winding_[v] != 1 || special(v); }
 
     // A flip around v, or (inside the mesh) a winding other than 1.
     bool special(Index v) const {

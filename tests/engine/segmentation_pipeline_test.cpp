@@ -50,6 +50,17 @@ double rectangle_error(const SegmentationResult& r) {
     return e;
 }
 
+// bench/variants.py's aniso copy: turned by 0.7 about z, then scaled 1 : 2.5 : 0.6.
+MeshView aniso_copy(const MeshView& mesh) {
+    const double c = std::cos(0.7), s = std::sin(0.7);
+    PointMatrix V(mesh.n_vertices(), 3);
+    for (Index v = 0; v < mesh.n_vertices(); ++v) {
+        const double x = mesh.V(v, 0), y = mesh.V(v, 1), z = mesh.V(v, 2);
+        V.row(v) << c * x - s * y, 2.5 * (s * x + c * y), 0.6 * z;
+    }
+    return make_mesh_view(std::move(V), mesh.F);
+}
+
 Index unfinished(const SegmentationResult& r) {
     Index n = 0;
     for (const auto& t : r.trajectories) n += t.end == kernels::Trajectory::End::LengthCap;
@@ -194,16 +205,9 @@ TEST(Segmentation, SmallMeshWithManyHolesIsSubdividedTwice) {
 // 1 : 2.5 : 0.6 (bench/variants.py's aniso copy) keeps 2 failed fans; from their saddle
 // vertices its rectangle error was 0.097.
 TEST(Segmentation, FailedFanZeroStartsAtItsMostTurningVertex) {
-    const std::shared_ptr<const MeshView> input = test::corpus_mesh("elephant-with-holes");
-    const double c = std::cos(0.7), s = std::sin(0.7);
-    PointMatrix V(input->n_vertices(), 3);
-    for (Index v = 0; v < input->n_vertices(); ++v) {
-        const double x = input->V(v, 0), y = input->V(v, 1), z = input->V(v, 2);
-        V.row(v) << c * x - s * y, 2.5 * (s * x + c * y), 0.6 * z;
-    }
     SegmentOptions options;
     options.fan_refinement_rounds = 1;  // as the default's would end (later rounds not kept)
-    const SegmentationResult r = segment(make_mesh_view(std::move(V), input->F), options);
+    const SegmentationResult r = segment(aniso_copy(*test::corpus_mesh("elephant-with-holes")), options);
     EXPECT_GT(r.regular.failed_regions, 0);
     EXPECT_EQ(flipped(r), 0);
     EXPECT_EQ(unfinished(r), 0);
@@ -463,13 +467,7 @@ TEST(Segmentation, TorusFoldsAreRegularisedAndItsSidesClose) {
     // Turned and stretched 1 : 2.5 : 0.6 (bench/variants.py's aniso copy), two folds fail; the
     // sides still close, but the repair of their disk left 245 flipped uv triangles (rounding
     // along the limbs), that of the homology cut none: the torus keeps the one with fewer.
-    const double c = std::cos(0.7), s = std::sin(0.7);
-    PointMatrix V(mesh->n_vertices(), 3);
-    for (Index v = 0; v < mesh->n_vertices(); ++v) {
-        const double x = mesh->V(v, 0), y = mesh->V(v, 1), z = mesh->V(v, 2);
-        V.row(v) << c * x - s * y, 2.5 * (s * x + c * y), 0.6 * z;
-    }
-    const SegmentationResult aniso = segment(make_mesh_view(std::move(V), mesh->F));
+    const SegmentationResult aniso = segment(aniso_copy(*mesh));
     EXPECT_GT(aniso.regular.failed_regions, 0);
     ASSERT_EQ(aniso.patches.info.size(), 1u);
     EXPECT_EQ(flipped(aniso), 0);
