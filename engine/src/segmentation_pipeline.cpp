@@ -228,9 +228,7 @@ kernels::RegularisedForm regularised(const SegmentationWork& work, const kernels
     const Eigen::VectorXcd tau = r.conformal.double_covered
                                      ? restrict_to_first_copy(traced, *r.conformal.surface, r.conformal.tau)
                                      : r.conformal.tau;
-    // A torus without folds keeps its mesh as it is (its homology cut graph with it).
-    return r.is_torus() && work.regions.empty() ? kernels::unregularised(traced, tau)
-                                                 : kernels::regularise_zeros(traced, tau, work.regions, options);
+    return kernels::regularise_zeros(traced, tau, work.regions, options);
 }
 
 // The vertices within kFanZoneRings rings of the regions whose fans failed; none (the whole

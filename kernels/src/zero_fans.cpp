@@ -4,7 +4,6 @@
 #include <cmath>
 #include <map>
 #include <numbers>
-#include <numeric>
 
 #include <Eigen/Geometry>
 
@@ -1254,21 +1253,6 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     for (Index& f : out.original_face)
         if (f >= 0) f = flipped.original_face[f];
     out.edge_flips = flipped.flips;
-    return out;
-}
-
-RegularisedForm unregularised(const MeshView& mesh, const Eigen::VectorXcd& tau) {
-    HOLOFLOW_REQUIRE(tau.size() == mesh.n_edges(), "form must have one value per edge");
-    RegularisedForm out;
-    out.mesh = mesh;
-    out.tau = tau;
-    out.original_vertex.resize(mesh.n_vertices());
-    std::iota(out.original_vertex.begin(), out.original_vertex.end(), Index{0});
-    out.original_face.resize(mesh.n_faces());
-    std::iota(out.original_face.begin(), out.original_face.end(), Index{0});
-    std::vector<Complex> along(mesh.n_halfedges());
-    for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
-    out.flipped_faces = count_flipped_images(along);
     return out;
 }
 

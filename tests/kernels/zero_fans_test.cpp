@@ -109,6 +109,12 @@ TEST(ZeroFans, FoldAcrossOneEdgeIsRepairedByAnEdgeFlip) {
     const ImageCheck c = check_image(r.mesh, r.tau);
     EXPECT_EQ(c.flipped, 0);
     EXPECT_EQ(c.winding[0], 1);
+    // A fold no region names (a torus whose zero finder saw no fold cluster there) is
+    // repaired the same way.
+    const RegularisedForm unnamed = regularise_zeros(m, form_of(m, image), {});
+    EXPECT_EQ(unnamed.edge_flips, 1);
+    EXPECT_EQ(unnamed.flipped_faces, 0);
+    EXPECT_EQ(check_image(unnamed.mesh, unnamed.tau).flipped, 0);
 }
 
 // A vertex whose image lies far outside its link (winding 0, several flips) needs a
@@ -130,23 +136,24 @@ TEST(ZeroFans, FoldWithoutAZeroIsReTriangulated) {
     for (int w : c.winding) EXPECT_LE(w, 1);
 }
 
-// A surface that must keep its edges (a torus's homology cut) is passed through as it is: the
-// same mesh and form, identity maps, its folds counted and left.
-TEST(ZeroFans, UnregularisedKeepsTheMeshAndCountsItsFolds) {
+// Without regions and folds the mesh passes through as it is: the same triangles and form,
+// identity maps (a torus without folds keeps the surface's homology cut graph this way).
+TEST(ZeroFans, NoRegionAndNoFoldKeepsTheMesh) {
     const MeshView m = shapes::flat_grid(10, 10);
     std::vector<Complex> image(m.n_vertices());
     for (Index v = 0; v < m.n_vertices(); ++v) image[v] = point(m, v);
-    image[5 * 11 + 5] += Complex(0.17, 0.11);  // the fold of FoldWithoutAZeroIsReTriangulated
+    image[5 * 11 + 5] += Complex(0.03, 0.02);  // moved, not folded
     const Eigen::VectorXcd tau = form_of(m, image);
-    const RegularisedForm r = unregularised(m, tau);
+    ASSERT_EQ(check_image(m, tau).flipped, 0);
+    const RegularisedForm r = regularise_zeros(m, tau, {});
     EXPECT_EQ(r.mesh.F, m.F);
     EXPECT_EQ(r.tau, tau);
     for (Index v = 0; v < m.n_vertices(); ++v) EXPECT_EQ(r.original_vertex[v], v);
     for (Index f = 0; f < m.n_faces(); ++f) EXPECT_EQ(r.original_face[f], f);
-    EXPECT_GT(r.flipped_faces, 1);
-    EXPECT_EQ(r.flipped_faces, check_image(m, tau).flipped);
+    EXPECT_EQ(r.flipped_faces, 0);
     EXPECT_EQ(r.edge_flips, 0);
-    EXPECT_THROW(unregularised(m, Eigen::VectorXcd(3)), InvalidInput);
+    EXPECT_EQ(r.removed_vertices, 0);
+    EXPECT_THROW(regularise_zeros(m, Eigen::VectorXcd(3), {}), InvalidInput);
 }
 
 // f = z^3 at a vertex: an order-2 zero, its one-ring already a fan winding three times.

@@ -69,9 +69,4 @@ struct RegularisedForm {
 RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau,
                                  std::span<const ZeroRegion> regions, const FanOptions& options = {});
 
-//! The mesh and form as they are (identity vertex and face maps, no flips, no fans), its
-//! flipped image triangles counted: for a surface that must keep its edges (a torus opens along
-//! its homology cut graph) and has no zero to regularise.  \throw InvalidInput.
-RegularisedForm unregularised(const MeshView& mesh, const Eigen::VectorXcd& tau);
-
 }  // namespace holoflow::kernels
