@@ -146,6 +146,8 @@ struct SegmentSettings {
     int max_tips = 8;
     double hole_size = 0.02;
     int fan_refinements = 3;
+    holoflow::Index fill_holes = 0;
+    int max_working_genus = engine::SegmentOptions{}.holes.max_working_genus;
 
     void add_to(CLI::App& command) {
         command.add_option("--mode", mode, "vertical: the paper's trajectories; layout: both families, "
@@ -165,6 +167,12 @@ struct SegmentSettings {
                            "where zero fans fail: rounds of refinement around them, each a new conformal "
                            "solve (0: none)")
             ->check(CLI::Range(0, 8));
+        command.add_option("--fill-holes", fill_holes, "fill every boundary loop of at most this many edges")
+            ->check(CLI::Range(0, 256));
+        command.add_option("--max-working-genus", max_working_genus,
+                           "past this genus of the double cover, fill the shortest boundary loops until it "
+                           "fits (0: never)")
+            ->check(CLI::Range(0, 1 << 20));
     }
     //! `concurrent`: models computed at once (each gets its share of the default memory limit).
     graphs::SegmentationGraphOptions graph_options(std::size_t concurrent) const {
@@ -179,6 +187,8 @@ struct SegmentSettings {
         o.segment.max_tips = max_tips;
         o.segment.hole_size = hole_size;
         o.segment.fan_refinement_rounds = fan_refinements;
+        o.segment.holes.max_loop_edges = fill_holes;
+        o.segment.holes.max_working_genus = max_working_genus;
         return o;
     }
     //! What a finished model's results depend on: a re-run with other values recomputes it.
@@ -186,6 +196,7 @@ struct SegmentSettings {
         return {{"mode", mode}, {"laplacian", laplacian}, {"component", load.components},
                 {"pinched_vertices", load.pinched_vertices},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
+                {"fill_holes", fill_holes}, {"max_working_genus", max_working_genus},
                 {"version", HOLOFLOW_VERSION}};
     }
 };

@@ -9,6 +9,7 @@
 #include "holoflow/engine/output.h"
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/holes.h"
 #include "holoflow/kernels/holomorphic.h"
 #include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/subdivision.h"
@@ -178,11 +179,24 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
     // (or rectangles against a boundary), where a generic form's leaves would be dense.
     if (r.mode == SegmentMode::Vertical) work.options.conformal.form = FormChoice::IntegerPeriods;
     StageClock clock(r.timings_ms);
-    const MeshView& input = *work.input;
 
-    const kernels::Topology topology = kernels::compute_topology(input);
+    kernels::Topology topology = kernels::compute_topology(*work.input);
     r.input_genus = topology.genus;
     require_connected(topology);
+    // Small holes filled first (a scan's pinholes: each would add a handle to the double cover).
+    const std::vector<Index> holes = kernels::holes_to_fill(*work.input, topology, work.options.holes);
+    if (!holes.empty()) {
+        kernels::FilledHoles filled = kernels::fill_holes(*work.input, topology, holes);
+        r.filled_holes = filled.holes;
+        r.filled_hole_faces = filled.faces;
+        r.holes_left_open = filled.left_open;
+        if (filled.holes > 0) {
+            work.input = std::make_shared<const MeshView>(std::move(filled.mesh));
+            topology = kernels::compute_topology(*work.input);
+        }
+        clock.lap("hole_filling");
+    }
+    const MeshView& input = *work.input;
     // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1).
     if (topology.genus == 0 && topology.boundary_loops <= 1) {
         SlicedSurface sliced = slice_at_tips(input, topology, work.options, r);
@@ -709,6 +723,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"form", form_name(r.conformal.form)},
         {"tips", r.tips},
         {"tip_refinements", r.tip_refinements},
+        {"filled_holes", {{"holes", r.filled_holes}, {"faces", r.filled_hole_faces}, {"left_open", r.holes_left_open}}},
         {"fan_refinements", r.fan_refinements},
         {"zero_count", z.total_order},
         {"torus_modulus", r.is_torus() ? nlohmann::json::array({(r.torus_periods[1] / r.torus_periods[0]).real(),

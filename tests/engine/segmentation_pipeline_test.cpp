@@ -199,6 +199,47 @@ TEST(Segmentation, SmallMeshWithManyHolesIsSubdividedTwice) {
     EXPECT_EQ(flipped(level0), 0);
 }
 
+// A scan with pinholes: eight.off (genus 2) without 40 faces that share no vertex has 40 boundary
+// loops, a double cover of genus 43. Over the cap, the shortest loops close until the working
+// genus fits; the holes left are boundaries of a checked segmentation.
+TEST(Segmentation, PinholesPastTheGenusCapAreFilled) {
+    const std::shared_ptr<const MeshView> eight = test::corpus_mesh("eight");
+    std::vector<char> used(eight->n_vertices(), 0), drop(eight->n_faces(), 0);
+    Index dropped = 0;
+    for (Index i = 0; i < eight->n_faces() && dropped < 40; ++i) {
+        const Index f = static_cast<Index>((i * 2609LL) % eight->n_faces());  // spread over the surface
+        if (used[eight->F(f, 0)] || used[eight->F(f, 1)] || used[eight->F(f, 2)]) continue;
+        for (int k = 0; k < 3; ++k) used[eight->F(f, k)] = 1;
+        drop[f] = 1, ++dropped;
+    }
+    ASSERT_EQ(dropped, 40);
+    TriangleMatrix F(eight->n_faces() - dropped, 3);
+    for (Index f = 0, row = 0; f < eight->n_faces(); ++f)
+        if (!drop[f]) F.row(row++) = eight->F.row(f);
+    const MeshView holey = make_mesh_view(eight->V, F);
+
+    SegmentOptions options;
+    options.holes.max_working_genus = 12;  // 2 g + b - 1 <= 12: 9 loops stay
+    const SegmentationResult r = segment(holey, options);
+    EXPECT_EQ(r.filled_holes, 31);
+    EXPECT_EQ(r.filled_hole_faces, 31);
+    EXPECT_EQ(r.holes_left_open, 0);
+    EXPECT_EQ(r.input_genus, 2);
+    EXPECT_EQ(r.conformal.basis.genus, 12);
+    EXPECT_EQ(r.zeros.total_order, 2 * 12 - 2);
+    EXPECT_EQ(r.zeros.artifact_clusters, 0);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_GE(r.traced_input->n_faces(), holey.n_faces() + 31);
+    const nlohmann::json report = segmentation_report(r);
+    EXPECT_EQ(report["filled_holes"]["holes"], 31);
+    EXPECT_EQ(report["working_genus"], 12);
+    // Under the default cap nothing is filled: the holes are the surface's.
+    const SegmentationResult kept = segment(holey);
+    EXPECT_EQ(kept.filled_holes, 0);
+    EXPECT_EQ(kept.conformal.basis.genus, 43);
+    EXPECT_EQ(kept.zeros.total_order, 2 * 43 - 2);
+}
+
 // A zero whose fan failed is traced from its cluster's vertex that turns most in the image:
 // the saddle vertex the cluster names can be a regular point of the image, whose two curves per
 // family leave a patch winding around the zero. elephant-with-holes turned and stretched

@@ -13,6 +13,7 @@
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/engine/segmentation_output.h"
 #include "holoflow/kernels/flow_cut.h"
+#include "holoflow/kernels/holes.h"
 #include "holoflow/kernels/patches.h"
 #include "holoflow/kernels/trajectories.h"
 #include "holoflow/kernels/zero_fans.h"
@@ -35,6 +36,10 @@ struct SegmentOptions {
     //! Where zero fans fail: the midpoint subdivision (small surfaces) and up to this many
     //! bisections around the failed fans, each a new conformal solve; 0: none.
     int fan_refinement_rounds = 3;
+    //! Boundary loops filled before anything else (kernels/holes.h): by size only where asked;
+    //! past working genus 128 the shortest ones (a scan's pinholes) until it fits, so that a mesh
+    //! with thousands of holes is segmented as the surface it samples instead of being refused.
+    kernels::HoleFillOptions holes{.max_loop_edges = 0, .max_working_genus = 128};
 };
 
 //! Everything the segmentation computes for one mesh (DESIGN 2.5-2.7).
@@ -47,6 +52,10 @@ struct SegmentationResult {
     //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
     //! input's vertex ids, so tips below its vertex count are input vertices.
     int tip_refinements = 0;
+    //! Boundary loops filled (SegmentOptions::holes) and the triangles that closed them, which
+    //! traced_input holds after the input's faces; loops chosen but left open (no triangulation
+    //! without a repeated edge or a flat triangle).
+    Index filled_holes = 0, filled_hole_faces = 0, holes_left_open = 0;
     //! Refinements of the traced surface kept because fewer zero fans failed on them (its
     //! midpoint subdivision while small, then bisections around the failed fans, see
     //! SegmentOptions::fan_refinement_rounds): traced_input is then the refined one, with the
