@@ -60,7 +60,7 @@ std::string format_ms(double ms) {
 // Stage columns of summary.csv in pipeline order (result.json gives a reused model's stages back
 // sorted by name); stages not listed follow in order of appearance.
 const std::vector<std::string> kStageOrder = {
-    "load", "tip_slicing", "double_cover", "intrinsic_delaunay", "laplacian_assembly",
+    "load", "hole_filling", "tip_slicing", "double_cover", "intrinsic_delaunay", "laplacian_assembly",
     "cut_graph_and_closed_forms", "wedge_matrix", "carry_forms", "analyse", "factorise", "overlap",
     "solves", "hodge_star", "holomorphic_basis", "integration", "zeros", "zero_fans", "tracing",
     "cutting", "patches", "write"};

@@ -273,6 +273,30 @@ TEST(Cli, FanRefinementsCanBeTurnedOff) {
     EXPECT_LT(b["faces"].get<int>(), a["faces"].get<int>());
 }
 
+// elephant-with-holes (genus 3, 106 loops of 6 to 78 edges; its double cover has genus 111):
+// --fill-holes 100 closes every loop, leaving the closed genus-3 surface with its 4 zeros and
+// exact rectangles; bad values are usage errors.
+TEST(Cli, FillHolesClosesLoopsUpToTheGivenLength) {
+    test::TempDir dir;
+    const std::string mesh = test::corpus("elephant-with-holes.off");
+    const auto r = test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "a").string() + "' --json --fill-holes 100");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["filled_holes"]["holes"], 106);
+    EXPECT_EQ(j["filled_holes"]["left_open"], 0);
+    EXPECT_EQ(j["genus"], 3);
+    EXPECT_EQ(j["working_genus"], 3);
+    EXPECT_EQ(j["double_covered"], false);
+    EXPECT_EQ(j["zero_count"], 4);
+    EXPECT_EQ(j["artifacts"], 0);
+    EXPECT_EQ(j["flipped_uv_triangles"], 0);
+    EXPECT_LT(j["rectangle_error_max"].get<double>(), 1e-9);
+    for (const char* bad : {"--fill-holes -1", "--fill-holes 257", "--max-working-genus -3", "--max-working-genus x"}) {
+        const auto b = test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "b").string() + "' " + bad);
+        EXPECT_EQ(b.status, 2) << bad << ": " << b.err;
+    }
+}
+
 // --max-memory refuses a model over it (resource_limit, exit 7, the estimate and the form count
 // named) and writes nothing; 0 lifts the limit, and without the option the default share of the
 // machine's memory lets an ordinary model through.
