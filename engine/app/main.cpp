@@ -148,6 +148,7 @@ struct SegmentSettings {
     int fan_refinements = 3;
     holoflow::Index fill_holes = 0;
     int max_working_genus = engine::SegmentOptions{}.holes.max_working_genus;
+    bool keep_holes_at_failed_fans = false;
 
     void add_to(CLI::App& command) {
         command.add_option("--mode", mode, "vertical: the paper's trajectories; layout: both families, "
@@ -173,6 +174,9 @@ struct SegmentSettings {
                            "past this genus of the double cover, fill the shortest boundary loops until it "
                            "fits (0: never)")
             ->check(CLI::Range(0, 1 << 20));
+        command.add_flag("--keep-holes-at-failed-fans", keep_holes_at_failed_fans,
+                         "leave open the small holes next to zeros whose fans fail (default: fill them and "
+                         "solve again)");
     }
     //! `concurrent`: models computed at once (each gets its share of the default memory limit).
     graphs::SegmentationGraphOptions graph_options(std::size_t concurrent) const {
@@ -189,6 +193,7 @@ struct SegmentSettings {
         o.segment.fan_refinement_rounds = fan_refinements;
         o.segment.holes.max_loop_edges = fill_holes;
         o.segment.holes.max_working_genus = max_working_genus;
+        o.segment.fill_holes_at_failed_fans = !keep_holes_at_failed_fans;
         return o;
     }
     //! What a finished model's results depend on: a re-run with other values recomputes it.
@@ -197,6 +202,7 @@ struct SegmentSettings {
                 {"pinched_vertices", load.pinched_vertices},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
                 {"fill_holes", fill_holes}, {"max_working_genus", max_working_genus},
+                {"keep_holes_at_failed_fans", keep_holes_at_failed_fans},
                 {"version", HOLOFLOW_VERSION}};
     }
 };

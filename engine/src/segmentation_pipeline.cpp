@@ -38,6 +38,9 @@ constexpr Index kFanRefinementFaces = 100000;
 // hexagonal holes two edges apart: 54 failed, 8 after one step, 4 after two, 7 after a
 // bisection instead).
 constexpr Index kMaxMidpointRefinedFaces = 20000;
+// Holes this many rings from a zero whose fan still fails are filled in a last try.
+constexpr int kUnresolvedHoleRings = 2;
+constexpr int kUnresolvedHoleRounds = 3;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -290,6 +293,30 @@ MeshView bisected_surface(const MeshView& surface, std::span<const char> zone) {
     return kernels::flip_flat_edges_to_delaunay(kernels::bisect_long_edges(surface, factor * *median, zone));
 }
 
+// Boundary loops of the traced surface within kUnresolvedHoleRings rings of a zero whose fan
+// failed, that fillable_holes may close: a zero sitting on a hole of a few edges, which no fan
+// resolved at any refinement (its cluster's saddles and image windings disagree there).
+std::vector<Index> holes_at_failed_fans(const MeshView& surface, const kernels::Topology& topology,
+                                        std::span<const kernels::ZeroRegion> regions,
+                                        const kernels::RegularisedForm& regular, Index longest_fillable_loop) {
+    std::vector<char> near(surface.n_vertices(), 0);
+    for (std::size_t i = 0; i < regions.size(); ++i)
+        if (regions[i].order > 0 && regular.region_vertex[i] < 0)
+            for (Index v : regions[i].vertices) near[v] = 1;
+    for (int ring = 0; ring < kUnresolvedHoleRings; ++ring) {
+        std::vector<char> grown = near;
+        for (Index e = 0; e < surface.n_edges(); ++e)
+            if (near[surface.E(e, 0)] || near[surface.E(e, 1)]) grown[surface.E(e, 0)] = grown[surface.E(e, 1)] = 1;
+        near = std::move(grown);
+    }
+    std::vector<Index> touched;
+    for (Index l = 0; l < static_cast<Index>(topology.boundary_cycles.size()); ++l) {
+        const std::vector<Index>& loop = topology.boundary_cycles[l];
+        if (std::any_of(loop.begin(), loop.end(), [&](Index v) { return near[v] != 0; })) touched.push_back(l);
+    }
+    return kernels::fillable_holes(surface, topology, touched, longest_fillable_loop);
+}
+
 // The conformal stage, the zeros and the fans again on a refinement of the traced surface (same
 // shape, same vertex ids); nothing where that fails, would need more memory than allowed or
 // has more than max_faces.
@@ -342,7 +369,7 @@ void fans(SegmentationWork& work) {
     };
     // Kept where fewer regions fail and no artifact is new (a CAD mesh's small part, midpoint
     // subdivided twice, placed every fan but broke the maximum principle twice).
-    const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined) {
+    const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined, bool refinement = true) {
         if (!refined) return false;
         if (refined->result.regular.failed_regions >= r.regular.failed_regions ||
             refined->result.zeros.artifact_clusters > r.zeros.artifact_clusters)
@@ -353,7 +380,7 @@ void fans(SegmentationWork& work) {
         r.zeros = std::move(f.zeros);
         work.regions = std::move(refined->regions);
         r.regular = std::move(f.regular);
-        ++r.fan_refinements;
+        r.fan_refinements += refinement;
         return true;
     };
     const int rounds = work.options.fan_refinement_rounds;
@@ -390,6 +417,26 @@ void fans(SegmentationWork& work) {
                 next = std::move(twice);
         }
         if (!keep_if_fewer_fail(std::move(next))) break;
+    }
+    // Zeros still unresolved next to small holes (a scan's pinholes, a loop of a few edges
+    // holding two zeros of the double cover): those holes are filled, and the surface solved
+    // again, kept where fewer regions fail (not on tip-sliced surfaces, whose holes are ours).
+    // The new double cover has other zeros, which may sit on other small holes: a few rounds.
+    for (int round = 0; round < kUnresolvedHoleRounds && r.regular.failed_regions > 0 &&
+                        work.options.fill_holes_at_failed_fans && r.tips.empty();
+         ++round) {
+        const kernels::Topology topology = kernels::compute_topology(*r.traced_input);
+        const std::vector<Index> holes = holes_at_failed_fans(*r.traced_input, topology, work.regions, r.regular,
+                                                              work.options.holes.longest_fillable_loop);
+        if (holes.empty()) break;
+        kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
+        if (filled.holes == 0) break;
+        std::optional<SegmentationWork> closed = on_refined_surface(std::move(filled.mesh), try_options(), max_faces);
+        tried(closed);
+        if (!keep_if_fewer_fail(std::move(closed), false)) break;
+        r.filled_holes += filled.holes;
+        r.filled_hole_faces += filled.faces;
+        r.unresolved_holes_filled += filled.holes;
     }
     // Where regions still fail, they may grow once more from their irregular vertices only
     // (kernels::FanOptions::regrow_failed), kept where fewer fail. Only here, on the surface
@@ -723,7 +770,11 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"form", form_name(r.conformal.form)},
         {"tips", r.tips},
         {"tip_refinements", r.tip_refinements},
-        {"filled_holes", {{"holes", r.filled_holes}, {"faces", r.filled_hole_faces}, {"left_open", r.holes_left_open}}},
+        {"filled_holes",
+         {{"holes", r.filled_holes},
+          {"faces", r.filled_hole_faces},
+          {"left_open", r.holes_left_open},
+          {"at_failed_fans", r.unresolved_holes_filled}}},
         {"fan_refinements", r.fan_refinements},
         {"zero_count", z.total_order},
         {"torus_modulus", r.is_torus() ? nlohmann::json::array({(r.torus_periods[1] / r.torus_periods[0]).real(),

@@ -36,6 +36,34 @@ void boundary_neighbors(const MeshView& mesh, Index v, std::vector<Index>& out) 
 
 int working_genus(int genus, int loops) { return loops == 0 ? genus : 2 * genus + loops - 1; }
 
+// A boundary loop by length: fewest edges, then shortest perimeter, then smallest vertex id.
+struct LoopSize {
+    Index edges;
+    double perimeter;
+    Index first_vertex;
+    Index loop;
+    auto key() const { return std::tie(edges, perimeter, first_vertex, loop); }
+};
+
+// Each component's loops, shortest first.
+std::vector<std::vector<LoopSize>> loops_by_size(const MeshView& mesh, const Topology& topology) {
+    const std::vector<std::vector<Index>>& cycles = topology.boundary_cycles;
+    std::vector<std::vector<LoopSize>> per_component(topology.per_component.size());
+    for (Index l = 0; l < static_cast<Index>(cycles.size()); ++l) {
+        const std::vector<Index>& c = cycles[l];
+        double perimeter = 0;
+        for (std::size_t i = 0; i < c.size(); ++i)
+            perimeter += (mesh.V.row(c[(i + 1) % c.size()]) - mesh.V.row(c[i])).norm();
+        const Index component = topology.face_component[MeshView::face(mesh.vertex_halfedge[c.front()])];
+        per_component[component].push_back(
+            {static_cast<Index>(c.size()), perimeter, *std::min_element(c.begin(), c.end()), l});
+    }
+    for (std::vector<LoopSize>& loops : per_component)
+        std::sort(loops.begin(), loops.end(), [](const LoopSize& a, const LoopSize& b) { return a.key() < b.key(); });
+    return per_component;
+}
+
+
 }  // namespace
 
 std::vector<std::array<Index, 3>> triangulate_hole(const MeshView& mesh, std::span<const Index> loop,
@@ -109,32 +137,13 @@ std::vector<std::array<Index, 3>> triangulate_hole(const MeshView& mesh, std::sp
 }
 
 std::vector<Index> holes_to_fill(const MeshView& mesh, const Topology& topology, const HoleFillOptions& options) {
-    const std::vector<std::vector<Index>>& cycles = topology.boundary_cycles;
-    const Index n_loops = static_cast<Index>(cycles.size());
-    struct Candidate {
-        Index edges;
-        double perimeter;
-        Index first_vertex;
-        Index loop;
-        auto key() const { return std::tie(edges, perimeter, first_vertex, loop); }
-    };
-    std::vector<std::vector<Candidate>> per_component(topology.per_component.size());
-    for (Index l = 0; l < n_loops; ++l) {
-        const std::vector<Index>& c = cycles[l];
-        double perimeter = 0;
-        for (std::size_t i = 0; i < c.size(); ++i)
-            perimeter += (mesh.V.row(c[(i + 1) % c.size()]) - mesh.V.row(c[i])).norm();
-        const Index component = topology.face_component[MeshView::face(mesh.vertex_halfedge[c.front()])];
-        per_component[component].push_back(
-            {static_cast<Index>(c.size()), perimeter, *std::min_element(c.begin(), c.end()), l});
-    }
+    const std::vector<std::vector<LoopSize>> per_component = loops_by_size(mesh, topology);
     std::vector<Index> chosen;
     for (std::size_t comp = 0; comp < per_component.size(); ++comp) {
-        std::vector<Candidate>& loops = per_component[comp];
-        std::sort(loops.begin(), loops.end(), [](const Candidate& a, const Candidate& b) { return a.key() < b.key(); });
+        const std::vector<LoopSize>& loops = per_component[comp];
         const int genus = topology.per_component[comp].genus;
         int open = static_cast<int>(loops.size());
-        for (const Candidate& c : loops) {
+        for (const LoopSize& c : loops) {
             if (c.edges > options.longest_fillable_loop) break;  // sorted: every later one is longer
             const bool longest = open == 1;                       // sorted: the last one left
             if (genus == 0 && longest) break;                     // a disk stays a disk
@@ -148,6 +157,25 @@ std::vector<Index> holes_to_fill(const MeshView& mesh, const Topology& topology,
     }
     std::sort(chosen.begin(), chosen.end());
     return chosen;
+}
+
+std::vector<Index> fillable_holes(const MeshView& mesh, const Topology& topology, std::span<const Index> loops,
+                                  Index longest_fillable_loop) {
+    std::vector<char> asked(topology.boundary_cycles.size(), 0);
+    for (Index l : loops) {
+        HOLOFLOW_REQUIRE(l >= 0 && l < static_cast<Index>(asked.size()), "no boundary loop " + std::to_string(l));
+        asked[l] = 1;
+    }
+    const std::vector<std::vector<LoopSize>> per_component = loops_by_size(mesh, topology);
+    std::vector<Index> out;
+    for (std::size_t comp = 0; comp < per_component.size(); ++comp) {
+        const std::vector<LoopSize>& sorted = per_component[comp];
+        const std::size_t kept = topology.per_component[comp].genus == 0 ? 2 : 1;  // the longest
+        for (std::size_t i = 0; i + kept < sorted.size(); ++i)
+            if (asked[sorted[i].loop] && sorted[i].edges <= longest_fillable_loop) out.push_back(sorted[i].loop);
+    }
+    std::sort(out.begin(), out.end());
+    return out;
 }
 
 FilledHoles fill_holes(const MeshView& mesh, const Topology& topology, std::span<const Index> holes) {

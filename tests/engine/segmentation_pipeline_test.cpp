@@ -182,6 +182,7 @@ TEST(Segmentation, SmallMeshWithManyHolesIsSubdividedTwice) {
     const std::shared_ptr<const MeshView> input = test::corpus_mesh("elephant-with-holes");
     SegmentOptions options;
     options.fan_refinement_rounds = 2;  // the third round (the default) fails more: not kept
+    options.fill_holes_at_failed_fans = false;  // the refinements alone
     const SegmentationResult r = segment(*input, options);
     EXPECT_EQ(r.fan_refinements, 3);
     EXPECT_GT(r.traced_input->n_faces(), 16 * input->n_faces());
@@ -193,10 +194,33 @@ TEST(Segmentation, SmallMeshWithManyHolesIsSubdividedTwice) {
     // the boundary along more than one arc): 54 -> 39 failed.
     SegmentOptions unrefined;
     unrefined.fan_refinement_rounds = 0;
+    unrefined.fill_holes_at_failed_fans = false;
     const SegmentationResult level0 = segment(*input, unrefined);
     EXPECT_LE(level0.regular.failed_regions, 39);
     EXPECT_EQ(level0.zeros.total_order, 2 * level0.conformal.basis.genus - 2);
     EXPECT_EQ(flipped(level0), 0);
+}
+
+// The holes next to zeros whose fans fail are filled and the surface solved again, a few rounds:
+// elephant-with-holes unrefined (39 failed fans, most of them two zeros on a hexagon) keeps at
+// most one failed fan, and the traced surface is the input with those holes closed.
+TEST(Segmentation, HolesAtFailedFansAreFilled) {
+    const std::shared_ptr<const MeshView> input = test::corpus_mesh("elephant-with-holes");
+    SegmentOptions options;
+    options.fan_refinement_rounds = 0;
+    const SegmentationResult r = segment(*input, options);
+    EXPECT_GT(r.unresolved_holes_filled, 20);
+    EXPECT_EQ(r.filled_holes, r.unresolved_holes_filled);
+    EXPECT_LE(r.regular.failed_regions, 1);
+    EXPECT_EQ(r.fan_refinements, 0);
+    EXPECT_EQ(r.traced_input->n_vertices(), input->n_vertices());
+    EXPECT_EQ(r.traced_input->n_faces(), input->n_faces() + r.filled_hole_faces);
+    for (Index f = 0; f < input->n_faces(); ++f) ASSERT_EQ(r.traced_input->F.row(f), input->F.row(f));
+    EXPECT_EQ(r.conformal.basis.genus, 111 - r.filled_holes);  // each hole a handle of the cover
+    EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+    EXPECT_EQ(r.zeros.artifact_clusters, 0);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_LE(rectangle_error(r), 1e-4);
 }
 
 // A scan with pinholes: eight.off (genus 2) without 40 faces that share no vertex has 40 boundary
@@ -248,6 +272,7 @@ TEST(Segmentation, PinholesPastTheGenusCapAreFilled) {
 TEST(Segmentation, FailedFanZeroStartsAtItsMostTurningVertex) {
     SegmentOptions options;
     options.fan_refinement_rounds = 1;  // as the default's would end (later rounds not kept)
+    options.fill_holes_at_failed_fans = false;  // the fans stay failed
     const SegmentationResult r = segment(aniso_copy(*test::corpus_mesh("elephant-with-holes")), options);
     EXPECT_GT(r.regular.failed_regions, 0);
     EXPECT_EQ(flipped(r), 0);

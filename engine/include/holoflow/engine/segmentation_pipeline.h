@@ -40,6 +40,10 @@ struct SegmentOptions {
     //! past working genus 128 the shortest ones (a scan's pinholes) until it fits, so that a mesh
     //! with thousands of holes is segmented as the surface it samples instead of being refused.
     kernels::HoleFillOptions holes{.max_loop_edges = 0, .max_working_genus = 128};
+    //! Where a zero's fan still fails after the refinements, the holes within two rings of it
+    //! (not a component's longest loop, see kernels::fillable_holes) are filled and the surface
+    //! solved again, kept where fewer fans fail (never on tip-sliced surfaces).
+    bool fill_holes_at_failed_fans = true;
 };
 
 //! Everything the segmentation computes for one mesh (DESIGN 2.5-2.7).
@@ -56,6 +60,9 @@ struct SegmentationResult {
     //! traced_input holds after the input's faces; loops chosen but left open (no triangulation
     //! without a repeated edge or a flat triangle).
     Index filled_holes = 0, filled_hole_faces = 0, holes_left_open = 0;
+    //! Of filled_holes, those filled because a zero next to them kept a failed fan after every
+    //! refinement (SegmentOptions::fill_holes_at_failed_fans).
+    Index unresolved_holes_filled = 0;
     //! Refinements of the traced surface kept because fewer zero fans failed on them (its
     //! midpoint subdivision while small, then bisections around the failed fans, see
     //! SegmentOptions::fan_refinement_rounds): traced_input is then the refined one, with the

@@ -41,6 +41,13 @@ std::vector<std::array<Index, 3>> triangulate_hole(const MeshView& mesh, std::sp
 //! triangle or two would leave a degenerate sphere).
 std::vector<Index> holes_to_fill(const MeshView& mesh, const Topology& topology, const HoleFillOptions& options);
 
+//! Of `loops` (indices into topology.boundary_cycles), those that may close without changing
+//! which surface is segmented: never a component's longest loop (nor, on genus 0, its second
+//! longest, so that it stays an annulus at least), none of more than `longest_fillable_loop`
+//! edges. Sorted.
+std::vector<Index> fillable_holes(const MeshView& mesh, const Topology& topology, std::span<const Index> loops,
+                                  Index longest_fillable_loop = HoleFillOptions{}.longest_fillable_loop);
+
 struct FilledHoles {
     MeshView mesh;                  //!< the input's vertices; its faces first, then the fill triangles
     Index holes = 0;                //!< loops filled
