@@ -56,9 +56,10 @@ struct SegmentationResult {
     //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
     //! input's vertex ids, so tips below its vertex count are input vertices.
     int tip_refinements = 0;
-    //! Boundary loops filled (SegmentOptions::holes) and the triangles that closed them, which
-    //! traced_input holds after the input's faces; loops chosen but left open (no triangulation
-    //! without a repeated edge or a flat triangle).
+    //! Boundary loops filled (SegmentOptions::holes, then fill_holes_at_failed_fans) and the
+    //! triangles that closed them, which traced_input holds after the faces it had (the input's,
+    //! or a refinement's); loops chosen but left open (no triangulation without a repeated edge
+    //! or a flat triangle).
     Index filled_holes = 0, filled_hole_faces = 0, holes_left_open = 0;
     //! Of filled_holes, those filled because a zero next to them kept a failed fan after every
     //! refinement (SegmentOptions::fill_holes_at_failed_fans).
