@@ -429,7 +429,12 @@ void fans(SegmentationWork& work) {
         const std::vector<Index> holes = holes_at_failed_fans(*r.traced_input, topology, work.regions, r.regular,
                                                               work.options.holes.longest_fillable_loop);
         if (holes.empty()) break;
-        kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
+        kernels::FilledHoles filled;
+        try {  // a try like the refinements: where it cannot be made, the surface stays
+            filled = kernels::fill_holes(*r.traced_input, topology, holes);
+        } catch (const InvalidInput&) {
+            break;
+        }
         if (filled.holes == 0) break;
         std::optional<SegmentationWork> closed = on_refined_surface(std::move(filled.mesh), try_options(), max_faces);
         tried(closed);
