@@ -303,6 +303,8 @@ std::vector<Index> holes_at_failed_fans(const MeshView& surface, const kernels::
     for (std::size_t i = 0; i < regions.size(); ++i)
         if (regions[i].order > 0 && regular.region_vertex[i] < 0)
             for (Index v : regions[i].vertices) near[v] = 1;
+    // Rings along edges, both ways (failed_fan_zone's halfedge rings do not cross a boundary
+    // edge backwards; shared, they changed which holes close: 88 -> 93 on elephant-with-holes).
     for (int ring = 0; ring < kUnresolvedHoleRings; ++ring) {
         std::vector<char> grown = near;
         for (Index e = 0; e < surface.n_edges(); ++e)
@@ -429,19 +431,14 @@ void fans(SegmentationWork& work) {
         const std::vector<Index> holes = holes_at_failed_fans(*r.traced_input, topology, work.regions, r.regular,
                                                               work.options.holes.longest_fillable_loop);
         if (holes.empty()) break;
-        kernels::FilledHoles filled;
-        try {  // a try like the refinements: where it cannot be made, the surface stays
-            filled = kernels::fill_holes(*r.traced_input, topology, holes);
-        } catch (const InvalidInput&) {
-            break;
-        }
+        kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
         if (filled.holes == 0) break;
         std::optional<SegmentationWork> closed = on_refined_surface(std::move(filled.mesh), try_options(), max_faces);
         tried(closed);
         if (!keep_if_fewer_fail(std::move(closed), false)) break;
         r.filled_holes += filled.holes;
         r.filled_hole_faces += filled.faces;
-        r.unresolved_holes_filled += filled.holes;
+        r.holes_filled_at_failed_fans += filled.holes;
     }
     // Where regions still fail, they may grow once more from their irregular vertices only
     // (kernels::FanOptions::regrow_failed), kept where fewer fail. Only here, on the surface
@@ -779,7 +776,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
          {{"holes", r.filled_holes},
           {"faces", r.filled_hole_faces},
           {"left_open", r.holes_left_open},
-          {"at_failed_fans", r.unresolved_holes_filled}}},
+          {"at_failed_fans", r.holes_filled_at_failed_fans}}},
         {"fan_refinements", r.fan_refinements},
         {"zero_count", z.total_order},
         {"torus_modulus", r.is_torus() ? nlohmann::json::array({(r.torus_periods[1] / r.torus_periods[0]).real(),

@@ -20,20 +20,6 @@ double triangle_quality(const MeshView& mesh, Index a, Index b, Index c) {
     return 2 * std::sqrt(3.0) * (pb - pa).cross(pc - pa).norm() / squares;
 }
 
-// The vertices joined to boundary vertex v by an edge: around v from its outgoing boundary
-// halfedge counter-clockwise to the incoming one (MeshView keeps the boundary one as
-// vertex_halfedge).
-void boundary_neighbors(const MeshView& mesh, Index v, std::vector<Index>& out) {
-    out.clear();
-    Index h = mesh.vertex_halfedge[v], last = h;
-    for (Index steps = 0; h != kNoHalfedge && steps <= mesh.n_halfedges(); ++steps) {
-        out.push_back(mesh.head(h));
-        last = h;
-        h = mesh.rotate(h);
-    }
-    out.push_back(mesh.tail(MeshView::prev(last)));
-}
-
 int working_genus(int genus, int loops) { return loops == 0 ? genus : 2 * genus + loops - 1; }
 
 // A boundary loop by length: fewest edges, then shortest perimeter, then smallest vertex id.
@@ -63,7 +49,6 @@ std::vector<std::vector<LoopSize>> loops_by_size(const MeshView& mesh, const Top
     return per_component;
 }
 
-
 }  // namespace
 
 std::vector<std::array<Index, 3>> triangulate_hole(const MeshView& mesh, std::span<const Index> loop,
@@ -74,23 +59,10 @@ std::vector<std::array<Index, 3>> triangulate_hole(const MeshView& mesh, std::sp
     std::vector<Index> q(loop.rbegin(), loop.rend());
     for (Index v : q) HOLOFLOW_REQUIRE(v >= 0 && v < mesh.n_vertices(), "hole vertex out of range");
 
-    // joined[i * n + k]: the mesh already has an edge q_i q_k (a diagonal there would double it).
-    std::vector<std::pair<Index, Index>> sorted;  // (vertex, position), for lookups
-    sorted.reserve(n);
-    for (Index i = 0; i < n; ++i) sorted.emplace_back(q[i], i);
+    std::vector<Index> sorted(q);
     std::sort(sorted.begin(), sorted.end());
-    for (Index i = 1; i < n; ++i)
-        HOLOFLOW_REQUIRE(sorted[i].first != sorted[i - 1].first,
-                         "hole passes vertex " + std::to_string(sorted[i].first) + " twice");
-    std::vector<char> joined(static_cast<std::size_t>(n) * n, 0);
-    std::vector<Index> neighbors;
-    for (Index i = 0; i < n; ++i) {
-        boundary_neighbors(mesh, q[i], neighbors);
-        for (Index w : neighbors) {
-            const auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(w, Index{0}));
-            if (it != sorted.end() && it->first == w) joined[static_cast<std::size_t>(i) * n + it->second] = 1;
-        }
-    }
+    if (const auto twice = std::adjacent_find(sorted.begin(), sorted.end()); twice != sorted.end())
+        throw InvalidInput("triangulate_hole: hole passes vertex " + std::to_string(*twice) + " twice");
 
     // Best triangulation of the sub-polygon q_i .. q_k (closed by the chord q_i q_k): the one
     // whose worst triangle is best, then the largest quality sum. worst < 0: none valid.
@@ -106,7 +78,8 @@ std::vector<std::array<Index, 3>> triangulate_hole(const MeshView& mesh, std::sp
         for (Index i = 0; i + gap < n; ++i) {
             const Index k = i + gap;
             const bool chord_is_side = i == 0 && k == n - 1;  // the polygon's own edge q_{n-1} q_0
-            if (!chord_is_side && (joined[at(i, k)] || joined[at(k, i)])) continue;
+            // A chord the mesh already has as an edge would double it.
+            if (!chord_is_side && joins(mesh.F, mesh.twin, mesh.vertex_halfedge[q[i]], q[k])) continue;
             Best& b = best[at(i, k)];
             for (Index j = i + 1; j < k; ++j) {
                 const Best& left = best[at(i, j)];

@@ -209,8 +209,8 @@ TEST(Segmentation, HolesAtFailedFansAreFilled) {
     SegmentOptions options;
     options.fan_refinement_rounds = 0;
     const SegmentationResult r = segment(*input, options);
-    EXPECT_GT(r.unresolved_holes_filled, 20);
-    EXPECT_EQ(r.filled_holes, r.unresolved_holes_filled);
+    EXPECT_GT(r.holes_filled_at_failed_fans, 20);
+    EXPECT_EQ(r.filled_holes, r.holes_filled_at_failed_fans);
     EXPECT_LE(r.regular.failed_regions, 1);
     EXPECT_EQ(r.fan_refinements, 0);
     EXPECT_EQ(r.traced_input->n_vertices(), input->n_vertices());
@@ -228,19 +228,9 @@ TEST(Segmentation, HolesAtFailedFansAreFilled) {
 // genus fits; the holes left are boundaries of a checked segmentation.
 TEST(Segmentation, PinholesPastTheGenusCapAreFilled) {
     const std::shared_ptr<const MeshView> eight = test::corpus_mesh("eight");
-    std::vector<char> used(eight->n_vertices(), 0), drop(eight->n_faces(), 0);
-    Index dropped = 0;
-    for (Index i = 0; i < eight->n_faces() && dropped < 40; ++i) {
-        const Index f = static_cast<Index>((i * 2609LL) % eight->n_faces());  // spread over the surface
-        if (used[eight->F(f, 0)] || used[eight->F(f, 1)] || used[eight->F(f, 2)]) continue;
-        for (int k = 0; k < 3; ++k) used[eight->F(f, k)] = 1;
-        drop[f] = 1, ++dropped;
-    }
-    ASSERT_EQ(dropped, 40);
-    TriangleMatrix F(eight->n_faces() - dropped, 3);
-    for (Index f = 0, row = 0; f < eight->n_faces(); ++f)
-        if (!drop[f]) F.row(row++) = eight->F.row(f);
-    const MeshView holey = make_mesh_view(eight->V, F);
+    const std::vector<Index> drop = test::pinhole_faces(*eight, 40, 2609);  // spread over the surface
+    ASSERT_EQ(drop.size(), 40u);
+    const MeshView holey = test::without_faces(*eight, drop);
 
     SegmentOptions options;
     options.holes.max_working_genus = 12;  // 2 g + b - 1 <= 12: 9 loops stay

@@ -9,39 +9,19 @@
 
 #include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/topology.h"
+#include "support/test_support.h"
 
 namespace holoflow::kernels {
 namespace {
+
+using test::pinhole_faces;
+using test::without_faces;
 
 // A face as a rotation-free key: its vertex triple rotated to start at the smallest id.
 std::array<Index, 3> face_key(Index a, Index b, Index c) {
     if (b < a && b < c) return {b, c, a};
     if (c < a && c < b) return {c, a, b};
     return {a, b, c};
-}
-
-// `mesh` without the faces listed (kept faces in their order).
-MeshView without_faces(const MeshView& mesh, const std::vector<Index>& drop) {
-    std::vector<char> dropped(mesh.n_faces(), 0);
-    for (Index f : drop) dropped[f] = 1;
-    TriangleMatrix F(mesh.n_faces() - static_cast<Index>(drop.size()), 3);
-    Index row = 0;
-    for (Index f = 0; f < mesh.n_faces(); ++f)
-        if (!dropped[f]) F.row(row++) = mesh.F.row(f);
-    return make_mesh_view(mesh.V, F);
-}
-
-// Up to `count` faces, every `stride`-th, that share no vertex with each other: deleting them
-// leaves one 3-edge hole each and manifold vertices.
-std::vector<Index> pinhole_faces(const MeshView& mesh, Index count, Index stride) {
-    std::vector<char> used(mesh.n_vertices(), 0);
-    std::vector<Index> faces;
-    for (Index f = 0; f < mesh.n_faces() && static_cast<Index>(faces.size()) < count; f += stride) {
-        if (used[mesh.F(f, 0)] || used[mesh.F(f, 1)] || used[mesh.F(f, 2)]) continue;
-        for (int k = 0; k < 3; ++k) used[mesh.F(f, k)] = 1;
-        faces.push_back(f);
-    }
-    return faces;
 }
 
 TEST(Holes, PinholesOfATorusCloseIntoTheTorus) {

@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 #include <sys/wait.h>
+#include <vector>
 
 #include "holoflow/engine/mesh_loader.h"
 
@@ -82,6 +83,32 @@ inline CommandResult run_cli(const std::string& args) {
     r.out = slurp(out);
     r.err = slurp(err);
     return r;
+}
+
+//! Up to `count` faces of `mesh` that share no vertex with each other, taken in the order
+//! (i * step) mod #F (spread over the surface for a large step): deleting them leaves one 3-edge
+//! hole each and every vertex manifold.
+inline std::vector<Index> pinhole_faces(const MeshView& mesh, Index count, Index step) {
+    std::vector<char> used(mesh.n_vertices(), 0);
+    std::vector<Index> faces;
+    for (Index i = 0; i < mesh.n_faces() && static_cast<Index>(faces.size()) < count; ++i) {
+        const Index f = static_cast<Index>((static_cast<long long>(i) * step) % mesh.n_faces());
+        if (used[mesh.F(f, 0)] || used[mesh.F(f, 1)] || used[mesh.F(f, 2)]) continue;
+        for (int k = 0; k < 3; ++k) used[mesh.F(f, k)] = 1;
+        faces.push_back(f);
+    }
+    return faces;
+}
+
+//! `mesh` without the faces listed (the others in their order, the vertices all kept).
+inline MeshView without_faces(const MeshView& mesh, const std::vector<Index>& drop) {
+    std::vector<char> dropped(mesh.n_faces(), 0);
+    for (Index f : drop) dropped[f] = 1;
+    TriangleMatrix F(mesh.n_faces() - static_cast<Index>(drop.size()), 3);
+    Index row = 0;
+    for (Index f = 0; f < mesh.n_faces(); ++f)
+        if (!dropped[f]) F.row(row++) = mesh.F.row(f);
+    return make_mesh_view(mesh.V, F);
 }
 
 }  // namespace holoflow::test

@@ -63,7 +63,7 @@ struct SegmentationResult {
     Index filled_holes = 0, filled_hole_faces = 0, holes_left_open = 0;
     //! Of filled_holes, those filled because a zero next to them kept a failed fan after every
     //! refinement (SegmentOptions::fill_holes_at_failed_fans).
-    Index unresolved_holes_filled = 0;
+    Index holes_filled_at_failed_fans = 0;
     //! Refinements of the traced surface kept because fewer zero fans failed on them (its
     //! midpoint subdivision while small, then bisections around the failed fans, see
     //! SegmentOptions::fan_refinement_rounds): traced_input is then the refined one, with the
