@@ -10,6 +10,14 @@ batch over them.
                                                            rotated (the same surface relabelled)
                                          MESH-holes5.off   5 % of the faces deleted (hundreds of
                                                            holes, pinched vertices, islands)
+                                         MESH-mirror.off   x negated and every face reversed
+                                                           (the mirror image, still outward)
+                                         MESH-far.off      scaled by 1e-3 and moved 1e4
+                                                           diameters from the origin
+                                         MESH-bighole.off  a ball of 3 % of the faces around
+                                                           one face removed (one large hole)
+                                         MESH-split.off    10 % of the faces split at their
+                                                           centroid (valence 3, obtuse slivers)
   bench/variants.py summary RESULTS      totals of `holoflow batch OUT -o RESULTS` (see
                                          bench/README, "Unseen meshes")
 
@@ -106,6 +114,42 @@ def make(out, paths):
             rotated.append(face[k:] + face[:k])
         write_off(os.path.join(out, stem + '-perm.off'), [vertices[i] for i in order], rotated)
         write_off(os.path.join(out, stem + '-holes5.off'), vertices, [f for f in faces if rng.random() > 0.05])
+        write_off(os.path.join(out, stem + '-mirror.off'), [[-x, y, z] for x, y, z in vertices],
+                  [face[::-1] for face in faces])
+        lo = [min(v[i] for v in vertices) for i in range(3)]
+        hi = [max(v[i] for v in vertices) for i in range(3)]
+        diameter = math.dist(lo, hi)
+        write_off(os.path.join(out, stem + '-far.off'),
+                  [[1e-3 * x + 1e4 * 1e-3 * diameter for x in v] for v in vertices], faces)
+        write_off(os.path.join(out, stem + '-bighole.off'), vertices, without_ball(faces, rng, 0.03))
+        split_vertices, split_faces = list(vertices), []
+        for face in faces:
+            if len(face) == 3 and rng.random() < 0.1:
+                c = len(split_vertices)
+                split_vertices.append([sum(vertices[i][k] for i in face) / 3 for k in range(3)])
+                split_faces += [[face[0], face[1], c], [face[1], face[2], c], [face[2], face[0], c]]
+            else:
+                split_faces.append(face)
+        write_off(os.path.join(out, stem + '-split.off'), split_vertices, split_faces)
+
+
+def without_ball(faces, rng, fraction):
+    """faces less a breadth-first ball (across shared vertices) of `fraction` of them."""
+    at_vertex = {}
+    for f, face in enumerate(faces):
+        for v in face:
+            at_vertex.setdefault(v, []).append(f)
+    seed = rng.randrange(len(faces))
+    removed, queue = {seed}, [seed]
+    for f in queue:
+        if len(removed) >= fraction * len(faces):
+            break
+        for v in faces[f]:
+            for g in at_vertex[v]:
+                if g not in removed:
+                    removed.add(g)
+                    queue.append(g)
+    return [face for f, face in enumerate(faces) if f not in removed]
 
 
 def summary(results):

@@ -16,6 +16,7 @@
 #include "holoflow/kernels/holomorphic.h"
 #include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/subdivision.h"
+#include "holoflow/kernels/topology.h"
 #include "support/test_support.h"
 
 namespace holoflow::engine {
@@ -316,6 +317,31 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
             EXPECT_TRUE(std::isfinite(p.distortion_max));
         }
     }
+}
+
+// b9_mesh with every tenth face split at its centroid, its largest part (genus 1, 15 boundary
+// loops): a failed zero leaves one patch whose form nearly vanishes along a stretch of its
+// border (over a hundred border points within 1e-5 of its 0.96 x 0.18 rectangle). Laid on the
+// rectangle at the form's coordinate they crowd, and rounding flipped 719 triangles of the
+// repair; at 3D arc length none flips.
+TEST(Segmentation, RepairSpacesOutBorderPointsWhereTheFormVanishes) {
+    const MeshView split = test::centroid_split(*test::corpus_mesh("b9_mesh"), 10, 1);
+    const kernels::Topology topology = kernels::compute_topology(split);
+    std::vector<MeshView> parts = kernels::component_meshes(split, topology);
+    const auto largest = std::max_element(parts.begin(), parts.end(),
+                                          [](const MeshView& a, const MeshView& b) { return a.n_faces() < b.n_faces(); });
+    const SegmentationResult r = segment(*largest);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+    Index repaired = 0;
+    for (const kernels::PatchInfo& p : r.patches.info) {
+        repaired += p.repaired();
+        if (p.repaired()) {
+            EXPECT_LE(p.rectangle_error, 1e-4);
+            EXPECT_TRUE(std::isfinite(p.distortion_max));
+        }
+    }
+    EXPECT_GT(repaired, 0);
 }
 
 // A refined try the memory limit refuses is skipped: the model keeps its own surface (its

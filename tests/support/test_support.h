@@ -111,4 +111,27 @@ inline MeshView without_faces(const MeshView& mesh, const std::vector<Index>& dr
     return make_mesh_view(mesh.V, F);
 }
 
+//! `mesh` with every face f, f % step == first, split at its centroid into three faces in its
+//! place (the same surface; the new vertices have valence 3).
+inline MeshView centroid_split(const MeshView& mesh, Index step, Index first) {
+    const Index n_split = first < mesh.n_faces() ? (mesh.n_faces() - first + step - 1) / step : 0;
+    PointMatrix V(mesh.n_vertices() + n_split, 3);
+    V.topRows(mesh.n_vertices()) = mesh.V;
+    TriangleMatrix F(mesh.n_faces() + 2 * n_split, 3);
+    Index row = 0, c = mesh.n_vertices();
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        const Index a = mesh.F(f, 0), b = mesh.F(f, 1), d = mesh.F(f, 2);
+        if (f < first || (f - first) % step != 0) {
+            F.row(row++) = mesh.F.row(f);
+            continue;
+        }
+        V.row(c) = (mesh.V.row(a) + mesh.V.row(b) + mesh.V.row(d)) / 3;
+        F.row(row++) << a, b, c;
+        F.row(row++) << b, d, c;
+        F.row(row++) << d, a, c;
+        ++c;
+    }
+    return make_mesh_view(V, F);
+}
+
 }  // namespace holoflow::test
