@@ -56,8 +56,9 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
 //! embedding: each interior point the weighted mean of its neighbours, weights the cotangent
 //! weights clamped positive (one sparse SPD solve). With a strictly convex border and positive
 //! weights no triangle flips or degenerates; where rounding leaves flips anyway, a layout with
-//! uniform weights is tried too and the one with fewer flips kept (should that still have as
-//! many flips as the form had, the form's uv stays). Flips, distortion and rectangle error are
+//! uniform weights is tried too, then both again with every side at 3D arc length (where the
+//! form nearly vanishes its border points crowd), and the one with fewest flips kept, the first
+//! on ties (should that still have as many flips as the form had, the form's uv stays). Flips, distortion and rectangle error are
 //! measured again; `form_flipped_uv_triangles` keeps the form's count. A folded cylinder whose
 //! two border loops are iso-lines of one coordinate (vertical mode: iso-u) is laid out on its
 //! flat cylinder the same way: the loops stay on their lines, their points at the form's
