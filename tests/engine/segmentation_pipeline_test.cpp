@@ -327,7 +327,7 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
 TEST(Segmentation, RepairSpacesOutBorderPointsWhereTheFormVanishes) {
     const MeshView split = test::centroid_split(*test::corpus_mesh("b9_mesh"), 10, 1);
     const kernels::Topology topology = kernels::compute_topology(split);
-    std::vector<MeshView> parts = kernels::component_meshes(split, topology);
+    const std::vector<MeshView> parts = kernels::component_meshes(split, topology);
     const auto largest = std::max_element(parts.begin(), parts.end(),
                                           [](const MeshView& a, const MeshView& b) { return a.n_faces() < b.n_faces(); });
     const SegmentationResult r = segment(*largest);

@@ -58,13 +58,13 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
 //! weights no triangle flips or degenerates; where rounding leaves flips anyway, a layout with
 //! uniform weights is tried too, then both again with every side at 3D arc length (where the
 //! form nearly vanishes its border points crowd), and the one with fewest flips kept, the first
-//! on ties (should that still have as many flips as the form had, the form's uv stays). Flips, distortion and rectangle error are
-//! measured again; `form_flipped_uv_triangles` keeps the form's count. A folded cylinder whose
-//! two border loops are iso-lines of one coordinate (vertical mode: iso-u) is laid out on its
-//! flat cylinder the same way: the loops stay on their lines, their points at the form's
-//! coordinate except where it goes back along the loop (there at 3D arc length), and the
-//! interior is the same embedding with the period across the seam of the form's walk, first
-//! only within two rings of the folds. Other patches, and patches that touch themselves on
+//! on ties (should that still have as many flips as the form had, the form's uv stays). Flips,
+//! distortion and rectangle error are measured again; `form_flipped_uv_triangles` keeps the
+//! form's count. A folded cylinder whose two border loops are iso-lines of one coordinate
+//! (vertical mode: iso-u) is laid out on its flat cylinder the same way: the loops stay on their
+//! lines, their points at the form's coordinate except where it goes back along the loop (there
+//! at 3D arc length), and the interior is the same embedding with the period across the seam of
+//! the form's walk, first only within two rings of the folds. Other patches, and patches that touch themselves on
 //! their border, are left as they are. Deterministic.
 //! \pre `patches` from compute_patches on this mesh and border.  \throw InvalidInput.
 Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border, Patches patches);
