@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <tuple>
 #include <utility>
 
 #include "holoflow/engine/output.h"
@@ -27,6 +28,8 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 // Where a cylinder's border is no straight loop a transversal may only cut a disk off it; the
 // cylinder left is opened in the next round.
 constexpr int kCylinderRounds = 4;
+// Concave corners are split one per patch and round (a patch with several needs several).
+constexpr int kCornerRounds = 8;
 // Where zero fans fail the surface is refined: bisected this many rings around them,
 constexpr int kFanZoneRings = 4;
 // up to this many times its faces (cheese's bisection of every edge: 4.1x) or, on a small one,
@@ -644,11 +647,47 @@ void cut(SegmentationWork& work) {
     if (r.is_torus() && (r.trajectories.empty() || r.cut.skipped_segments > 0 || r.patches.info.size() != 1 ||
                          r.patches.info[0].type != kernels::PatchInfo::Type::Disk))
         open_along_homology_cut();
-    // Layout mode promises rectangles. A cylinder (closed curves that no critical trajectory
-    // crosses) is opened by the transversal through a vertex inside it, and the cut redone.
-    for (int round = 0; round < kCylinderRounds && work.options.mode == SegmentMode::Layout && !r.is_torus(); ++round) {
-        const std::vector<Trajectory> transversals = kernels::cylinder_transversals(
-            r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories, r.cut, border, r.patches);
+    // Layout mode promises rectangles. A disk with a concave corner (where a zero whose fan
+    // failed sent no curve into it) is split by the curve from that corner, before each
+    // cylinder round; a cylinder (closed curves that no critical trajectory crosses) is opened
+    // by the transversal through a vertex inside it. Each round redoes the cut.
+    std::vector<std::tuple<Index, TrajectoryFamily, Index>> corner_starts;  // each corner curve is tried once
+    for (int corner_rounds = 0, cylinder_rounds = 0; work.options.mode == SegmentMode::Layout && !r.is_torus();) {
+        std::vector<Trajectory> transversals;
+        if (corner_rounds < kCornerRounds) {
+            transversals = kernels::corner_transversals(r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories,
+                                                        r.cut, border, r.patches);
+            std::erase_if(transversals, [&](const Trajectory& t) {
+                const std::tuple start{t.start_vertex, t.family, t.first_face};
+                if (std::find(corner_starts.begin(), corner_starts.end(), start) != corner_starts.end()) return true;
+                corner_starts.push_back(start);
+                return false;
+            });
+            ++corner_rounds;
+            if (!transversals.empty()) {
+                // Kept only if the cut takes them whole (a patch that is no true disk, where
+                // the cut skipped pieces of curves already, gets nothing from them).
+                const std::size_t before = r.trajectories.size();
+                kernels::CutMesh kept_cut = r.cut;
+                kernels::Patches kept_patches = r.patches;
+                std::vector<char> kept_border = border;
+                r.trajectories.insert(r.trajectories.end(), transversals.begin(), transversals.end());
+                cut_and_fill();
+                if (r.cut.skipped_segments > kept_cut.skipped_segments) {
+                    r.trajectories.resize(before);
+                    r.cut = std::move(kept_cut);
+                    r.patches = std::move(kept_patches);
+                    border = std::move(kept_border);
+                    corner_rounds = kCornerRounds;
+                } else {
+                    r.transversals += static_cast<Index>(transversals.size());
+                }
+                continue;
+            }
+        }
+        if (cylinder_rounds++ >= kCylinderRounds) break;
+        transversals = kernels::cylinder_transversals(r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories,
+                                                      r.cut, border, r.patches);
         if (transversals.empty()) break;
         r.transversals += static_cast<Index>(transversals.size());
         r.trajectories.insert(r.trajectories.end(), transversals.begin(), transversals.end());

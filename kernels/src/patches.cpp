@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <tuple>
 
@@ -25,6 +26,9 @@ constexpr double kFlipTol = 1e-12;  // signed uv area below -tol * (longest edge
 
 constexpr double kSideBulge = 1e-4;       // repaired borders: bulge of a side over its length
 constexpr Index kCornerCandidates = 32;  // border points tried per rectangle corner
+constexpr double kConcaveCorner = 1.25 * std::numbers::pi;  // a patch's angle between border edges above this
+constexpr double kCornerGap = 1e-6;  // a concave corner at least this far off its rectangle's sides (over its size)
+constexpr double kAxisTol = 1e-6;    // directions within this (radians, or relative) count as along
 constexpr Index kOpeningCandidates = 64;  // start vertices tried per cylinder (each one short trace)
 constexpr double kIsoLineTol = 1e-9;      // a repaired cylinder: loop spread across, period mismatch, over the period
 
@@ -871,6 +875,128 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
         const auto& chosen = filled(across) ? across : off;
         for (const Trajectory* t : chosen)
             if (t) out.push_back(*t);
+    }
+    return out;
+}
+
+namespace {
+
+// Offset in the form's image from corner `from` of face f to the point with barycentric `b`
+// (weights of corners 0, 1, 2) in f.
+Complex image_offset(const MeshView& mesh, const Eigen::VectorXcd& tau, Index f, int from, std::array<double, 3> b) {
+    std::array<Complex, 3> at{};
+    at[(from + 1) % 3] = form_along(mesh, tau, 3 * f + from);
+    at[(from + 2) % 3] = at[(from + 1) % 3] + form_along(mesh, tau, 3 * f + (from + 1) % 3);
+    return b[0] * at[0] + b[1] * at[1] + b[2] * at[2];
+}
+
+// Where a curve's first segment goes from its start, in the form's image.
+Complex first_step(const MeshView& mesh, const Eigen::VectorXcd& tau, const Trajectory& t) {
+    const Index f = t.first_face;
+    int from = 0;
+    while (from < 3 && mesh.F(f, from) != t.start_vertex) ++from;
+    if (from == 3) return 0;
+    std::array<double, 3> b{};
+    if (!t.crossings.empty()) {
+        const Index h = t.crossings[0].halfedge;
+        if (MeshView::face(h) != f) return 0;
+        b[h % 3] = 1 - t.crossings[0].t;
+        b[(h % 3 + 1) % 3] = t.crossings[0].t;
+    } else if (t.end_vertex >= 0) {
+        for (int k = 0; k < 3; ++k) b[k] = mesh.F(f, k) == t.end_vertex;
+    } else if (t.end == Trajectory::End::Collision) {
+        b = t.end_barycentric;
+    } else {
+        return 0;
+    }
+    return image_offset(mesh, tau, f, from, b);
+}
+
+}  // namespace
+
+std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                            std::span<const Index> zero_vertices,
+                                            std::span<const Trajectory> trajectories, const CutMesh& cut,
+                                            std::span<const char> border, const Patches& patches) {
+    const MeshView& cm = cut.mesh;
+    HOLOFLOW_REQUIRE(static_cast<Index>(border.size()) == cm.n_edges() &&
+                         static_cast<Index>(patches.face_patch.size()) == cm.n_faces() &&
+                         patches.corner_uv.size() == 3 * static_cast<std::size_t>(cm.n_faces()) &&
+                         static_cast<Index>(cut.original_vertex.size()) == cm.n_vertices(),
+                     "cut, border flags and patches must belong together");
+    std::vector<char> is_zero(cm.n_vertices(), 0);
+    for (Index z : zero_vertices)
+        if (z >= 0 && z < cm.n_vertices()) is_zero[z] = 1;  // the cut keeps the traced vertex ids
+    struct Candidate {
+        double angle;
+        Index vertex;
+        Complex direction;
+    };
+    std::vector<Candidate> best(patches.info.size(), {0, -1, 0});
+    const std::array<Complex, 4> axes{Complex(1, 0), Complex(0, 1), Complex(-1, 0), Complex(0, -1)};
+    const auto from = [&](Index h, Index to) { return patches.corner_uv[to] - patches.corner_uv[h]; };
+    std::vector<Index> sector;
+    // Each border halfedge out of a vertex starts one sector of its patch there: the faces
+    // from it around the vertex, inside the patch, to the next border edge. Where the border
+    // passes straight the sector has 180 degrees, at a rectangle's corner 90; at an L's
+    // concave corner 270, at the end of a slit 360.
+    for (Index h0 = 0; h0 < cm.n_halfedges(); ++h0) {
+        const Index v = cm.tail(h0), id = patches.face_patch[MeshView::face(h0)];
+        const PatchInfo& info = patches.info[id];
+        // Disks only (a cylinder is opened by cylinder_transversals), not folded ones (the
+        // repair's), and the corner off the rectangle's sides.
+        if (!on_border(cm, border, h0) || cut.original_vertex[v] < 0 || is_zero[v] ||
+            info.type != PatchInfo::Type::Disk || info.flipped_uv_triangles > 0 ||
+            !(rectangle_gap(info, patches.corner_uv[h0]) > kCornerGap))
+            continue;
+        sector.clear();
+        double angle = 0;
+        for (Index h = h0; h != kNoHalfedge && static_cast<Index>(sector.size()) < cm.n_faces();) {
+            const Complex e1 = from(h, MeshView::next(h)), e2 = from(h, MeshView::prev(h));
+            angle += std::atan2(cross(e1, e2), (e1 * std::conj(e2)).real());
+            sector.push_back(h);
+            if (on_border(cm, border, MeshView::prev(h))) break;
+            h = cm.rotate(h);
+        }
+        if (!(angle > kConcaveCorner) || (best[id].vertex >= 0 && !(angle > best[id].angle + kAxisTol))) continue;
+        // The axis direction into the sector farthest from its two sides.
+        const Complex first_side = from(h0, MeshView::next(h0));
+        const Complex last_side = from(sector.back(), MeshView::prev(sector.back()));
+        double widest = 0;
+        Complex direction = 0;
+        for (const Complex d : axes) {
+            const bool inside = std::any_of(sector.begin(), sector.end(), [&](Index h) {
+                const Complex e1 = from(h, MeshView::next(h)), e2 = from(h, MeshView::prev(h));
+                return cross(e1, e2) > 0 && cross(e1, d) >= -kAxisTol * std::abs(e1) &&
+                       cross(d, e2) >= -kAxisTol * std::abs(e2);
+            });
+            const double nearest = std::min(std::abs(std::arg(d / first_side)), std::abs(std::arg(d / last_side)));
+            if (inside && nearest > widest + kAxisTol) widest = nearest, direction = d;
+        }
+        if (direction != Complex(0)) best[id] = {angle, v, direction};
+    }
+    std::vector<TransversalStart> starts;
+    std::vector<const Candidate*> chosen;
+    for (const Candidate& c : best)
+        if (c.vertex >= 0) {
+            starts.push_back({cut.original_vertex[c.vertex],
+                              c.direction.real() == 0 ? TrajectoryFamily::Vertical : TrajectoryFamily::Horizontal});
+            chosen.push_back(&c);
+        }
+    if (starts.empty()) return {};
+    const std::vector<Trajectory> traced = trace_transversals(mesh, tau, zero_vertices, starts, trajectories);
+    std::vector<Trajectory> out;
+    for (std::size_t k = 0; k < chosen.size(); ++k) {
+        const Trajectory* pick = nullptr;
+        for (const Trajectory& t : traced) {
+            if (t.start_vertex != starts[k].vertex || t.family != starts[k].family) continue;
+            const Complex step = first_step(mesh, tau, t);
+            if ((step * std::conj(chosen[k]->direction)).real() > kAxisTol * std::abs(step)) {
+                pick = &t;
+                break;
+            }
+        }
+        if (pick) out.push_back(*pick);
     }
     return out;
 }

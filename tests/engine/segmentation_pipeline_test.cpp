@@ -344,6 +344,23 @@ TEST(Segmentation, RepairSpacesOutBorderPointsWhereTheFormVanishes) {
     EXPECT_GT(repaired, 0);
 }
 
+// b9_mesh with every tenth face from face 2 split at its centroid, its largest part: two of its
+// zero fans fail and a patch next to them comes out an L (rectangle error 0.105). The curve
+// from its concave corner splits it into rectangles.
+TEST(Segmentation, LayoutSplitsPatchesAtConcaveCorners) {
+    const MeshView split = test::centroid_split(*test::corpus_mesh("b9_mesh"), 10, 2);
+    const std::vector<MeshView> parts = kernels::component_meshes(split, kernels::compute_topology(split));
+    const auto largest = std::max_element(parts.begin(), parts.end(),
+                                          [](const MeshView& a, const MeshView& b) { return a.n_faces() < b.n_faces(); });
+    const SegmentationResult r = segment(*largest);
+    EXPECT_GT(r.regular.failed_regions, 0);
+    EXPECT_GT(r.transversals, 0);
+    EXPECT_EQ(r.cut.skipped_segments, 0);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+    EXPECT_LE(rectangle_error(r), 1e-4);
+}
+
 // A refined try the memory limit refuses is skipped: the model keeps its own surface (its
 // failed fans as they are) instead of failing.
 TEST(Segmentation, FanRefinementOverTheMemoryLimitIsSkipped) {

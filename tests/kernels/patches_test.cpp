@@ -113,6 +113,96 @@ TEST(CylinderTransversals, TubeOpensIntoItsRectangle) {
     EXPECT_EQ(std::abs(next[0].start_vertex / kAround - kAlong / 2), 1);
 }
 
+// The sheet [0, 2] x [0, 1] (12 by 6 cells) less the block [1, 2] x [0.5, 1]: an L whose
+// concave corner (1, 0.5) is a vertex. With `slit`, the whole sheet instead, and the edges from
+// (0, 0.5) to (1, 0.5) a border: a slit that ends inside at (1, 0.5).
+struct CornerSheet {
+    MeshView mesh;
+    Eigen::VectorXcd tau;
+    std::vector<char> border;
+    Index corner = -1;
+    explicit CornerSheet(bool slit) {
+        const Sheet s = sheet(12, 6);
+        std::vector<Index> kept, new_id(s.mesh.n_vertices(), -1);
+        for (Index f = 0; f < s.mesh.n_faces(); ++f) {
+            const Complex c = (point(s.mesh, s.mesh.F(f, 0)) + point(s.mesh, s.mesh.F(f, 1)) + point(s.mesh, s.mesh.F(f, 2))) / 3.0;
+            if (slit || c.real() < 1 || c.imag() < 0.5) kept.push_back(f);
+        }
+        TriangleMatrix F(static_cast<Index>(kept.size()), 3);
+        Index n = 0;
+        for (std::size_t i = 0; i < kept.size(); ++i)
+            for (int k = 0; k < 3; ++k) {
+                Index& id = new_id[s.mesh.F(kept[i], k)];
+                if (id < 0) id = n++;
+                F(static_cast<Index>(i), k) = id;
+            }
+        PointMatrix V(n, 3);
+        for (Index v = 0; v < s.mesh.n_vertices(); ++v)
+            if (new_id[v] >= 0) V.row(new_id[v]) = s.mesh.V.row(v);
+        mesh = make_mesh_view(V, F);
+        std::vector<Complex> image;
+        for (Index v = 0; v < mesh.n_vertices(); ++v) image.push_back(point(mesh, v));
+        tau = form_of(mesh, image);
+        corner = nearest_vertex(mesh, Complex(1, 0.5));
+        border.assign(mesh.n_edges(), 0);
+        for (Index e = 0; e < mesh.n_edges() && slit; ++e) {
+            const Complex a = point(mesh, mesh.E(e, 0)), b = point(mesh, mesh.E(e, 1));
+            border[e] = a.imag() == 0.5 && b.imag() == 0.5 && a.real() <= 1 && b.real() <= 1;
+        }
+    }
+};
+
+// The curve from the concave corner splits the patch into exact rectangles: the L's along
+// -u (the first of the two directions into it, both at 90 degrees from its sides), the slit's
+// along its own line beyond its end.
+TEST(CornerTransversals, ConcaveCornerIsContinuedIntoItsPatch) {
+    for (const bool slit : {false, true}) {
+        SCOPED_TRACE(slit ? "slit" : "L");
+        const CornerSheet c(slit);
+        const CutMesh uncut = cut_along_trajectories(c.mesh, c.tau, {});
+        const Patches before = compute_patches(uncut.mesh, uncut.tau, c.border);
+        ASSERT_EQ(before.info.size(), 1u);
+        ASSERT_EQ(before.info[0].type, PatchInfo::Type::Disk);
+        EXPECT_NEAR(before.info[0].rectangle_error, 0.25, 1e-12);  // the corner, 0.5 from two sides
+
+        const std::vector<Trajectory> curves = corner_transversals(c.mesh, c.tau, {}, {}, uncut, c.border, before);
+        ASSERT_EQ(curves.size(), 1u);
+        const Trajectory& t = curves[0];
+        EXPECT_EQ(t.start_vertex, c.corner);
+        EXPECT_EQ(t.family, TrajectoryFamily::Horizontal);
+        EXPECT_EQ(t.end, Trajectory::End::Boundary);
+        EXPECT_NEAR(t.length, 1, 1e-12);
+        const CutMesh cut = cut_along_trajectories(c.mesh, c.tau, curves);
+        std::vector<char> border(cut.mesh.n_edges(), 0);
+        for (Index e = 0; e < cut.mesh.n_edges(); ++e) {
+            const Complex a = point(cut.mesh, cut.mesh.E(e, 0)), b = point(cut.mesh, cut.mesh.E(e, 1));
+            border[e] = cut.edge_trajectory[e] != kNoBorder ||
+                        (slit && a.imag() == 0.5 && b.imag() == 0.5 && a.real() <= 1 && b.real() <= 1);
+        }
+        const Patches after = compute_patches(cut.mesh, cut.tau, border);
+        ASSERT_EQ(after.info.size(), 2u);
+        for (const PatchInfo& info : after.info) {
+            EXPECT_EQ(info.type, PatchInfo::Type::Disk);
+            EXPECT_LT(info.rectangle_error, 1e-12);
+        }
+        // Each corner is continued once: with the curve cut in, none is left.
+        EXPECT_TRUE(corner_transversals(c.mesh, c.tau, {}, curves, cut, border, after).empty());
+    }
+    // A rectangle has no concave corner; a zero is no start.
+    const CornerSheet l(false);
+    const CutMesh uncut = cut_along_trajectories(l.mesh, l.tau, {});
+    const Patches p = compute_patches(uncut.mesh, uncut.tau, l.border);
+    const std::vector<Index> zero{l.corner};
+    EXPECT_TRUE(corner_transversals(l.mesh, l.tau, zero, {}, uncut, l.border, p).empty());
+    const Sheet whole = sheet(12, 6);
+    const Eigen::VectorXcd tau = form_of(whole.mesh, whole.image);
+    const std::vector<char> none(whole.mesh.n_edges(), 0);
+    const CutMesh whole_cut = cut_along_trajectories(whole.mesh, tau, {});
+    EXPECT_TRUE(corner_transversals(whole.mesh, tau, {}, {}, whole_cut, none,
+                                    compute_patches(whole_cut.mesh, whole_cut.tau, none))
+                    .empty());
+}
+
 TEST(PatchRepair, FoldedDiskIsLaidOnItsRectangleWithNoFlip) {
     Sheet s = sheet(12, 6);
     // Fold the image: three interior points thrown across their neighbours (inside the sheet,

@@ -73,7 +73,8 @@ struct SegmentationResult {
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface
     kernels::RegularisedForm regular;         //!< traced_input with zero fans
     std::vector<Index> zero_vertices;         //!< per trace start: its vertex of regular.mesh
-    //! Critical trajectories, then (layout mode) the transversals that opened cylinders.
+    //! Critical trajectories, then (layout mode) the transversals that opened cylinders or split
+    //! patches at concave corners.
     std::vector<kernels::Trajectory> trajectories;
     Index transversals = 0;                   //!< the last ones of `trajectories`
     kernels::CutMesh cut;
@@ -113,7 +114,8 @@ void zeros(SegmentationWork& work);
 void fans(SegmentationWork& work);
 //! Critical trajectories from every zero (both families with the motorcycle rule in layout mode).
 void trace(SegmentationWork& work);
-//! Cut along the trajectories (layout mode: cylinders opened by transversals), patches with
+//! Cut along the trajectories (layout mode: transversals open cylinders and split patches at
+//! concave corners), patches with
 //! their maps, the flow complex.
 void cut(SegmentationWork& work);
 }  // namespace segment_stage

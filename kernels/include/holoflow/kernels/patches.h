@@ -87,6 +87,21 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
                                               std::span<const Trajectory> trajectories, const CutMesh& cut,
                                               std::span<const char> border, const Patches& patches);
 
+//! \brief Curves that make rectangles of disk patches with a concave corner (layout mode: an L,
+//! or a slit that ends inside, where a zero whose fan failed sent no curve into the patch). Per
+//! disk without flipped uv triangles, the border vertex where the patch's uv angle between two
+//! consecutive border edges is largest, if over 225 degrees (a vertex of `mesh`, not a zero,
+//! over 1e-6 of the patch's size off its rectangle's sides); from there the level curve
+//! (trace_transversals) along the axis direction into that angle farthest from its two edges
+//! (a slit's own line beyond its end; at a 270 degree corner the first of the two in the order
+//! +u, +v, -u, -v). It ends at the first curve of the other family, so it splits the patch; one
+//! curve per patch per call. Deterministic.
+//! \pre as cylinder_transversals.  \throw InvalidInput on mismatched sizes.
+std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
+                                            std::span<const Index> zero_vertices,
+                                            std::span<const Trajectory> trajectories, const CutMesh& cut,
+                                            std::span<const char> border, const Patches& patches);
+
 //! The flow complex G = (V, E, F): nodes (zeros, corners where borders meet or change kind),
 //! pieces (maximal border paths between nodes, or node-less loops) and patches.
 struct FlowComplex {
