@@ -559,6 +559,17 @@ Index embed_on_cylinder(const MeshView& mesh, std::span<const char> border, Unio
     });
 }
 
+// The transversal kernels' inputs: a cut, its border flags and its patches.
+void require_together(const CutMesh& cut, std::span<const char> border, const Patches& patches) {
+    const MeshView& cm = cut.mesh;
+    HOLOFLOW_REQUIRE(static_cast<Index>(border.size()) == cm.n_edges() &&
+                         static_cast<Index>(patches.face_patch.size()) == cm.n_faces() &&
+                         patches.corner_uv.size() == 3 * static_cast<std::size_t>(cm.n_faces()) &&
+                         static_cast<Index>(cut.original_face.size()) == cm.n_faces() &&
+                         static_cast<Index>(cut.original_vertex.size()) == cm.n_vertices(),
+                     "cut, border flags and patches must belong together");
+}
+
 // A start vertex for a cylinder's transversal.
 struct Opening {
     Index patch;
@@ -795,11 +806,8 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
                                               std::span<const Index> zero_vertices,
                                               std::span<const Trajectory> trajectories, const CutMesh& cut,
                                               std::span<const char> border, const Patches& patches) {
+    require_together(cut, border, patches);
     const MeshView& cm = cut.mesh;
-    HOLOFLOW_REQUIRE(static_cast<Index>(border.size()) == cm.n_edges() &&
-                         static_cast<Index>(patches.face_patch.size()) == cm.n_faces() &&
-                         static_cast<Index>(cut.original_face.size()) == cm.n_faces(),
-                     "cut, border flags and patches must belong together");
     std::vector<char> eligible(cm.n_vertices(), 0);
     for (Index v = 0; v < cm.n_vertices(); ++v) eligible[v] = cut.original_vertex[v] >= 0;
     for (Index z : zero_vertices)
@@ -918,12 +926,8 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
                                             std::span<const Index> zero_vertices,
                                             std::span<const Trajectory> trajectories, const CutMesh& cut,
                                             std::span<const char> border, const Patches& patches) {
+    require_together(cut, border, patches);
     const MeshView& cm = cut.mesh;
-    HOLOFLOW_REQUIRE(static_cast<Index>(border.size()) == cm.n_edges() &&
-                         static_cast<Index>(patches.face_patch.size()) == cm.n_faces() &&
-                         patches.corner_uv.size() == 3 * static_cast<std::size_t>(cm.n_faces()) &&
-                         static_cast<Index>(cut.original_vertex.size()) == cm.n_vertices(),
-                     "cut, border flags and patches must belong together");
     std::vector<char> is_zero(cm.n_vertices(), 0);
     for (Index z : zero_vertices)
         if (z >= 0 && z < cm.n_vertices()) is_zero[z] = 1;  // the cut keeps the traced vertex ids
