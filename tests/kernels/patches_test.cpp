@@ -203,6 +203,19 @@ TEST(CornerTransversals, ConcaveCornerIsContinuedIntoItsPatch) {
                     .empty());
 }
 
+TEST(CornerTransversals, RefusesACutWithOthersBorderOrPatches) {
+    const CornerSheet c(false);
+    const CutMesh uncut = cut_along_trajectories(c.mesh, c.tau, {});
+    const Patches p = compute_patches(uncut.mesh, uncut.tau, c.border);
+    const std::vector<char> short_border(3, 0);
+    EXPECT_THROW(corner_transversals(c.mesh, c.tau, {}, {}, uncut, short_border, p), InvalidInput);
+    EXPECT_THROW(cylinder_transversals(c.mesh, c.tau, {}, {}, uncut, short_border, p), InvalidInput);
+    const Sheet other = sheet(5, 4);
+    const Patches other_patches = compute_patches(other.mesh, form_of(other.mesh, other.image),
+                                                  std::vector<char>(other.mesh.n_edges(), 0));
+    EXPECT_THROW(corner_transversals(c.mesh, c.tau, {}, {}, uncut, c.border, other_patches), InvalidInput);
+}
+
 TEST(PatchRepair, FoldedDiskIsLaidOnItsRectangleWithNoFlip) {
     Sheet s = sheet(12, 6);
     // Fold the image: three interior points thrown across their neighbours (inside the sheet,
