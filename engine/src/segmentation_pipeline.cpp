@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <optional>
-#include <tuple>
 #include <utility>
 
 #include "holoflow/engine/output.h"
@@ -651,48 +650,36 @@ void cut(SegmentationWork& work) {
     // failed sent no curve into it) is split by the curve from that corner, before each
     // cylinder round; a cylinder (closed curves that no critical trajectory crosses) is opened
     // by the transversal through a vertex inside it. Each round redoes the cut.
-    std::vector<std::tuple<Index, TrajectoryFamily, Index>> corner_starts;  // each corner curve is tried once
+    const std::size_t critical = r.trajectories.size();
+    const auto add_and_cut = [&](const std::vector<Trajectory>& transversals) {
+        r.trajectories.insert(r.trajectories.end(), transversals.begin(), transversals.end());
+        cut_and_fill();
+    };
     for (int corner_rounds = 0, cylinder_rounds = 0; work.options.mode == SegmentMode::Layout && !r.is_torus();) {
-        std::vector<Trajectory> transversals;
-        if (corner_rounds < kCornerRounds) {
-            transversals = kernels::corner_transversals(r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories,
-                                                        r.cut, border, r.patches);
-            std::erase_if(transversals, [&](const Trajectory& t) {
-                const std::tuple start{t.start_vertex, t.family, t.first_face};
-                if (std::find(corner_starts.begin(), corner_starts.end(), start) != corner_starts.end()) return true;
-                corner_starts.push_back(start);
-                return false;
-            });
-            ++corner_rounds;
-            if (!transversals.empty()) {
-                // Kept only if the cut takes them whole (a patch that is no true disk, where
-                // the cut skipped pieces of curves already, gets nothing from them).
+        if (corner_rounds++ < kCornerRounds) {
+            const std::vector<Trajectory> corners = kernels::corner_transversals(
+                r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories, r.cut, border, r.patches);
+            if (!corners.empty()) {
+                // Undone where the cutter cannot take them whole (a patch that is no true disk,
+                // where it skipped pieces of curves already, gets nothing from them).
                 const std::size_t before = r.trajectories.size();
-                kernels::CutMesh kept_cut = r.cut;
-                kernels::Patches kept_patches = r.patches;
-                std::vector<char> kept_border = border;
-                r.trajectories.insert(r.trajectories.end(), transversals.begin(), transversals.end());
-                cut_and_fill();
-                if (r.cut.skipped_segments > kept_cut.skipped_segments) {
+                const Index skipped = r.cut.skipped_segments;
+                add_and_cut(corners);
+                if (r.cut.skipped_segments > skipped) {
                     r.trajectories.resize(before);
-                    r.cut = std::move(kept_cut);
-                    r.patches = std::move(kept_patches);
-                    border = std::move(kept_border);
+                    cut_and_fill();
                     corner_rounds = kCornerRounds;
-                } else {
-                    r.transversals += static_cast<Index>(transversals.size());
                 }
                 continue;
             }
         }
         if (cylinder_rounds++ >= kCylinderRounds) break;
-        transversals = kernels::cylinder_transversals(r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories,
-                                                      r.cut, border, r.patches);
-        if (transversals.empty()) break;
-        r.transversals += static_cast<Index>(transversals.size());
-        r.trajectories.insert(r.trajectories.end(), transversals.begin(), transversals.end());
-        cut_and_fill();
+        const std::vector<Trajectory> cylinders = kernels::cylinder_transversals(
+            r.regular.mesh, r.regular.tau, r.zero_vertices, r.trajectories, r.cut, border, r.patches);
+        if (cylinders.empty()) break;
+        add_and_cut(cylinders);
     }
+    r.transversals = static_cast<Index>(r.trajectories.size() - critical);
     clock.lap("cutting");
     // Where the form's uv folds (zero regions the fans could not regularise), a valid uv on
     // the same rectangle instead; reported per patch.

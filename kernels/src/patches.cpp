@@ -7,6 +7,7 @@
 #include <memory>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <tuple>
 
 #include <Eigen/Geometry>
@@ -254,12 +255,18 @@ Index embed_on_rectangle(const MeshView& mesh, std::span<const char> border, Uni
         if (e == first_border) break;
     }
     const Index m = static_cast<Index>(loop.size());
+    // The edges and their Laplacian pattern, made at the first layout and shared by a second
+    // (the border at arc length: the same fixed points).
+    std::optional<PatchEdges> edges;
+    std::optional<InsideLayout> inside;
     const auto lay_out_inside = [&](const Eigen::MatrixXd& x) {
-        const PatchEdges edges = patch_edges(mesh, points, faces);
-        InsideLayout inside(edges, is_border);
-        return fewest_flips(edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
+        if (!edges) {
+            edges.emplace(patch_edges(mesh, points, faces));
+            inside.emplace(*edges, is_border);
+        }
+        return fewest_flips(*edges, uv, [&](std::span<const double> weight, std::vector<Complex>& out) {
             Eigen::MatrixXd y = x;
-            if (!inside.solve(weight, {}, y)) return false;
+            if (!inside->solve(weight, {}, y)) return false;
             out.resize(3 * faces.size());
             for (std::size_t i = 0; i < faces.size(); ++i)
                 for (int k = 0; k < 3; ++k) {
@@ -889,16 +896,8 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
 
 namespace {
 
-// Offset in the form's image from corner `from` of face f to the point with barycentric `b`
-// (weights of corners 0, 1, 2) in f.
-Complex image_offset(const MeshView& mesh, const Eigen::VectorXcd& tau, Index f, int from, std::array<double, 3> b) {
-    std::array<Complex, 3> at{};
-    at[(from + 1) % 3] = form_along(mesh, tau, 3 * f + from);
-    at[(from + 2) % 3] = at[(from + 1) % 3] + form_along(mesh, tau, 3 * f + (from + 1) % 3);
-    return b[0] * at[0] + b[1] * at[1] + b[2] * at[2];
-}
-
-// Where a curve's first segment goes from its start, in the form's image.
+// Where a curve's first segment goes from its start, in the form's image (in its first face's
+// chart, chart_corner).
 Complex first_step(const MeshView& mesh, const Eigen::VectorXcd& tau, const Trajectory& t) {
     const Index f = t.first_face;
     int from = 0;
@@ -917,7 +916,11 @@ Complex first_step(const MeshView& mesh, const Eigen::VectorXcd& tau, const Traj
     } else {
         return 0;
     }
-    return image_offset(mesh, tau, f, from, b);
+    const std::array<Complex, 3> along{form_along(mesh, tau, 3 * f), form_along(mesh, tau, 3 * f + 1),
+                                       form_along(mesh, tau, 3 * f + 2)};
+    Complex step = -chart_corner(along, 0, from);  // the barycentric weights sum to 1
+    for (int k = 0; k < 3; ++k) step += b[k] * chart_corner(along, 0, k);
+    return step;
 }
 
 }  // namespace
@@ -938,7 +941,8 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
     };
     std::vector<Candidate> best(patches.info.size(), {0, -1, 0});
     const std::array<Complex, 4> axes{Complex(1, 0), Complex(0, 1), Complex(-1, 0), Complex(0, -1)};
-    const auto from = [&](Index h, Index to) { return patches.corner_uv[to] - patches.corner_uv[h]; };
+    // uv from corner h to corner `to` of the same face
+    const auto uv_from = [&](Index h, Index to) { return patches.corner_uv[to] - patches.corner_uv[h]; };
     std::vector<Index> sector;
     // Each border halfedge out of a vertex starts one sector of its patch there: the faces
     // from it around the vertex, inside the patch, to the next border edge. Where the border
@@ -956,7 +960,7 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
         sector.clear();
         double angle = 0;
         for (Index h = h0; h != kNoHalfedge && static_cast<Index>(sector.size()) < cm.n_faces();) {
-            const Complex e1 = from(h, MeshView::next(h)), e2 = from(h, MeshView::prev(h));
+            const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
             angle += std::atan2(cross(e1, e2), (e1 * std::conj(e2)).real());
             sector.push_back(h);
             if (on_border(cm, border, MeshView::prev(h))) break;
@@ -964,13 +968,13 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
         }
         if (!(angle > kConcaveCorner) || (best[id].vertex >= 0 && !(angle > best[id].angle + kAxisTol))) continue;
         // The axis direction into the sector farthest from its two sides.
-        const Complex first_side = from(h0, MeshView::next(h0));
-        const Complex last_side = from(sector.back(), MeshView::prev(sector.back()));
+        const Complex first_side = uv_from(h0, MeshView::next(h0));
+        const Complex last_side = uv_from(sector.back(), MeshView::prev(sector.back()));
         double widest = 0;
         Complex direction = 0;
         for (const Complex d : axes) {
             const bool inside = std::any_of(sector.begin(), sector.end(), [&](Index h) {
-                const Complex e1 = from(h, MeshView::next(h)), e2 = from(h, MeshView::prev(h));
+                const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
                 return cross(e1, e2) > 0 && cross(e1, d) >= -kAxisTol * std::abs(e1) &&
                        cross(d, e2) >= -kAxisTol * std::abs(e2);
             });
@@ -1000,7 +1004,11 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
                 break;
             }
         }
-        if (pick) out.push_back(*pick);
+        // A curve already among `trajectories` (its corner was not split by it) is not sent again.
+        const auto same = [&](const Trajectory& t) {
+            return t.start_vertex == pick->start_vertex && t.family == pick->family && t.first_face == pick->first_face;
+        };
+        if (pick && std::none_of(trajectories.begin(), trajectories.end(), same)) out.push_back(*pick);
     }
     return out;
 }

@@ -319,18 +319,23 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
     }
 }
 
-// b9_mesh with every tenth face split at its centroid, its largest part (genus 1, 15 boundary
-// loops): a failed zero leaves one patch whose form nearly vanishes along a stretch of its
+// The largest part of b9_mesh with every tenth face from face `first` split at its centroid
+// (the same surface, valence-3 vertices, where zero fans fail).
+MeshView b9_mesh_split(Index first) {
+    const MeshView split = test::centroid_split(*test::corpus_mesh("b9_mesh"), 10, first);
+    std::vector<MeshView> parts = kernels::component_meshes(split, kernels::compute_topology(split));
+    return std::move(*std::max_element(parts.begin(), parts.end(), [](const MeshView& a, const MeshView& b) {
+        return a.n_faces() < b.n_faces();
+    }));
+}
+
+// b9_mesh split from face 1 (its largest part: genus 1, 15 boundary loops): a failed zero leaves one patch whose form nearly vanishes along a stretch of its
 // border (over a hundred border points within 1e-5 of its 0.96 x 0.18 rectangle). Laid on the
 // rectangle at the form's coordinate they crowd, and rounding flipped 719 triangles of the
 // repair; at 3D arc length none flips.
 TEST(Segmentation, RepairSpacesOutBorderPointsWhereTheFormVanishes) {
-    const MeshView split = test::centroid_split(*test::corpus_mesh("b9_mesh"), 10, 1);
-    const kernels::Topology topology = kernels::compute_topology(split);
-    const std::vector<MeshView> parts = kernels::component_meshes(split, topology);
-    const auto largest = std::max_element(parts.begin(), parts.end(),
-                                          [](const MeshView& a, const MeshView& b) { return a.n_faces() < b.n_faces(); });
-    const SegmentationResult r = segment(*largest);
+    const MeshView mesh = b9_mesh_split(1);  // segment keeps a pointer to its input
+    const SegmentationResult r = segment(mesh);
     EXPECT_EQ(flipped(r), 0);
     EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
     Index repaired = 0;
@@ -344,15 +349,11 @@ TEST(Segmentation, RepairSpacesOutBorderPointsWhereTheFormVanishes) {
     EXPECT_GT(repaired, 0);
 }
 
-// b9_mesh with every tenth face from face 2 split at its centroid, its largest part: two of its
-// zero fans fail and a patch next to them comes out an L (rectangle error 0.105). The curve
-// from its concave corner splits it into rectangles.
+// b9_mesh split from face 2: zero fans fail, and a patch next to them comes out an L
+// (rectangle error 0.105). The curve from its concave corner splits it into rectangles.
 TEST(Segmentation, LayoutSplitsPatchesAtConcaveCorners) {
-    const MeshView split = test::centroid_split(*test::corpus_mesh("b9_mesh"), 10, 2);
-    const std::vector<MeshView> parts = kernels::component_meshes(split, kernels::compute_topology(split));
-    const auto largest = std::max_element(parts.begin(), parts.end(),
-                                          [](const MeshView& a, const MeshView& b) { return a.n_faces() < b.n_faces(); });
-    const SegmentationResult r = segment(*largest);
+    const MeshView mesh = b9_mesh_split(2);  // segment keeps a pointer to its input
+    const SegmentationResult r = segment(mesh);
     EXPECT_GT(r.regular.failed_regions, 0);
     EXPECT_GT(r.transversals, 0);
     EXPECT_EQ(r.cut.skipped_segments, 0);

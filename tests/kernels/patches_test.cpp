@@ -116,6 +116,8 @@ TEST(CylinderTransversals, TubeOpensIntoItsRectangle) {
 // The sheet [0, 2] x [0, 1] (12 by 6 cells) less the block [1, 2] x [0.5, 1]: an L whose
 // concave corner (1, 0.5) is a vertex. With `slit`, the whole sheet instead, and the edges from
 // (0, 0.5) to (1, 0.5) a border: a slit that ends inside at (1, 0.5).
+bool on_slit(Complex a, Complex b) { return a.imag() == 0.5 && b.imag() == 0.5 && a.real() <= 1 && b.real() <= 1; }
+
 struct CornerSheet {
     MeshView mesh;
     Eigen::VectorXcd tau;
@@ -146,8 +148,7 @@ struct CornerSheet {
         corner = nearest_vertex(mesh, Complex(1, 0.5));
         border.assign(mesh.n_edges(), 0);
         for (Index e = 0; e < mesh.n_edges() && slit; ++e) {
-            const Complex a = point(mesh, mesh.E(e, 0)), b = point(mesh, mesh.E(e, 1));
-            border[e] = a.imag() == 0.5 && b.imag() == 0.5 && a.real() <= 1 && b.real() <= 1;
+            border[e] = on_slit(point(mesh, mesh.E(e, 0)), point(mesh, mesh.E(e, 1)));
         }
     }
 };
@@ -175,9 +176,8 @@ TEST(CornerTransversals, ConcaveCornerIsContinuedIntoItsPatch) {
         const CutMesh cut = cut_along_trajectories(c.mesh, c.tau, curves);
         std::vector<char> border(cut.mesh.n_edges(), 0);
         for (Index e = 0; e < cut.mesh.n_edges(); ++e) {
-            const Complex a = point(cut.mesh, cut.mesh.E(e, 0)), b = point(cut.mesh, cut.mesh.E(e, 1));
             border[e] = cut.edge_trajectory[e] != kNoBorder ||
-                        (slit && a.imag() == 0.5 && b.imag() == 0.5 && a.real() <= 1 && b.real() <= 1);
+                        (slit && on_slit(point(cut.mesh, cut.mesh.E(e, 0)), point(cut.mesh, cut.mesh.E(e, 1))));
         }
         const Patches after = compute_patches(cut.mesh, cut.tau, border);
         ASSERT_EQ(after.info.size(), 2u);

@@ -115,8 +115,7 @@ void fans(SegmentationWork& work);
 //! Critical trajectories from every zero (both families with the motorcycle rule in layout mode).
 void trace(SegmentationWork& work);
 //! Cut along the trajectories (layout mode: transversals open cylinders and split patches at
-//! concave corners), patches with
-//! their maps, the flow complex.
+//! concave corners), patches with their maps, the flow complex.
 void cut(SegmentationWork& work);
 }  // namespace segment_stage
 
