@@ -95,7 +95,8 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
 //! (trace_transversals) along the axis direction into that angle farthest from its two edges
 //! (a slit's own line beyond its end; at a 270 degree corner the first of the two in the order
 //! +u, +v, -u, -v). It ends at the first curve of the other family, so it splits the patch; one
-//! curve per patch per call. Deterministic.
+//! curve per patch per call, none that `trajectories` has already (same start, family and first
+//! face). Deterministic.
 //! \pre as cylinder_transversals.  \throw InvalidInput on mismatched sizes.
 std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
                                             std::span<const Index> zero_vertices,
