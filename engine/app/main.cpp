@@ -142,7 +142,7 @@ struct SegmentSettings {
     LoadArgs load;
     std::string mode = "layout", laplacian = "intrinsic";
     std::size_t max_memory_mb = 0;
-    CLI::Option* max_memory = nullptr;  // not given: a share of the machine's memory
+    CLI::Option* max_memory = nullptr;  // not given: 3/4 of the machine's memory
     int max_tips = 8;
     double hole_size = 0.02;
     int fan_refinements = 3;
@@ -158,8 +158,10 @@ struct SegmentSettings {
             ->check(CLI::IsMember({"intrinsic", "extrinsic"}));
         load.add_to(command);
         max_memory = command.add_option("--max-memory", max_memory_mb,
-                                        "refuse a model whose conformal stage would need more MiB than this (0: no "
-                                        "limit; default: 3/4 of the memory over the models computed at once)");
+                                        "MiB the conformal stage may use: a model that would need more is refused "
+                                        "and a refinement that would is skipped; models computed at once share it, "
+                                        "and one over its share is computed again alone (0: no limit; default: "
+                                        "3/4 of the memory)");
         command.add_option("--max-tips", max_tips, "most tips detected automatically")
             ->check(CLI::Range(2, 64));
         command.add_option("--hole-size", hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
@@ -178,15 +180,17 @@ struct SegmentSettings {
                          "leave open the small holes next to zeros whose fans fail (default: fill them and "
                          "solve again)");
     }
-    //! `concurrent`: models computed at once (each gets its share of the default memory limit).
+    //! The memory limit in bytes (0: none).
+    std::size_t memory_limit_bytes() const {
+        return max_memory != nullptr && max_memory->count() == 0 ? available_memory_bytes() / 4 * 3 : max_memory_mb << 20;
+    }
+    //! `concurrent`: models computed at once (each gets its share of the memory limit).
     graphs::SegmentationGraphOptions graph_options(std::size_t concurrent) const {
         graphs::SegmentationGraphOptions o;
         o.load = load.options();
         o.segment.conformal.laplacian =
             laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic : engine::LaplacianKind::IntrinsicDelaunay;
-        o.segment.conformal.max_solver_bytes = max_memory != nullptr && max_memory->count() == 0
-                                                   ? available_memory_bytes() / 4 * 3 / std::max<std::size_t>(concurrent, 1)
-                                                   : max_memory_mb << 20;
+        o.segment.conformal.max_solver_bytes = memory_limit_bytes() / std::max<std::size_t>(concurrent, 1);
         o.segment.mode = mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
         o.segment.max_tips = max_tips;
         o.segment.hole_size = hole_size;
@@ -202,7 +206,7 @@ struct SegmentSettings {
                 {"pinched_vertices", load.pinched_vertices},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
                 {"fill_holes", fill_holes}, {"max_working_genus", max_working_genus},
-                {"keep_holes_at_failed_fans", keep_holes_at_failed_fans},
+                {"keep_holes_at_failed_fans", keep_holes_at_failed_fans}, {"max_memory_mb", memory_limit_bytes() >> 20},
                 {"version", HOLOFLOW_VERSION}};
     }
 };
@@ -253,6 +257,12 @@ struct BatchArgs {
     bool force = false, serial = false;
 };
 
+// Whether a model hit the memory limit: refused, or a refinement try skipped.
+bool over_memory_limit(const graphs::ModelRun& run) {
+    return run.outcome.status.kind == "resource_limit" ||
+           (run.report.is_object() && run.report.value("tries_over_memory_limit", 0) > 0);
+}
+
 // The collection flow graph: every model of the inputs, one folder each, a summary.
 int run_batch(const BatchArgs& args) {
     const std::filesystem::path out_root(args.out_dir);
@@ -260,15 +270,6 @@ int run_batch(const BatchArgs& args) {
     const std::vector<engine::ModelTask> tasks = engine::make_tasks(engine::expand_inputs(args.inputs), out_root);
     const unsigned threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-
-    const std::size_t in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * threads;
-    graphs::SegmentationGraphOptions options = args.settings.graph_options(std::min<std::size_t>(threads, in_flight));
-    options.max_in_flight = in_flight;
-    options.timeout = std::chrono::milliseconds(static_cast<long long>(args.timeout_s * 1000));
-    engine::FactorizationCache cache;
-    const graphs::SegmentationGraph graph(options, &cache);
-    if (!args.dot.empty())
-        engine::write_file_atomic(args.dot, [&](std::ostream& out) { graph.to_dot(out); });
 
     // Models finished by an earlier run with the same settings are reused, not recomputed.
     const nlohmann::json settings = args.settings.fingerprint();
@@ -286,9 +287,27 @@ int run_batch(const BatchArgs& args) {
         todo.push_back(std::move(task));
         todo_index.push_back(i);
     }
+
+    // Models computed side by side share the memory limit. One that hits its share is computed
+    // again alone with the whole limit, as `segment` would: results never depend on --threads.
+    const std::size_t in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * threads;
+    const std::size_t concurrent = std::max<std::size_t>(1, std::min({std::size_t{threads}, in_flight, todo.size()}));
+    graphs::SegmentationGraphOptions options = args.settings.graph_options(concurrent);
+    options.max_in_flight = in_flight;
+    options.timeout = std::chrono::milliseconds(static_cast<long long>(args.timeout_s * 1000));
+    graphs::SegmentationGraphOptions alone = args.settings.graph_options(1);
+    alone.max_in_flight = 1;
+    alone.timeout = options.timeout;
+    const bool shared = options.segment.conformal.max_solver_bytes != alone.segment.conformal.max_solver_bytes;
+    engine::FactorizationCache cache;
+    const graphs::SegmentationGraph graph(options, &cache);
+    if (!args.dot.empty())
+        engine::write_file_atomic(args.dot, [&](std::ostream& out) { graph.to_dot(out); });
+
     engine::BatchProgress progress(tasks.size(), std::cerr, ::isatty(STDERR_FILENO) == 1);
     for (std::size_t i = 0; i < tasks.size() - todo.size(); ++i) progress.model_finished(false, true);
-    const auto on_done = [&](graphs::ModelRun& run) {
+    std::vector<std::size_t> deferred;  // ids in todo
+    const auto finish = [&](graphs::ModelRun& run) {
         try {
             engine::write_model_result(run.outcome, settings);
         } catch (...) {
@@ -296,7 +315,32 @@ int run_batch(const BatchArgs& args) {
         }
         progress.model_finished(!run.outcome.status.ok(), false);
     };
-    std::vector<graphs::ModelRun> runs = args.serial ? graph.run_serial(todo, on_done) : graph.run(todo, on_done);
+    const auto on_done = [&](graphs::ModelRun& run) {
+        if (shared && over_memory_limit(run)) deferred.push_back(run.outcome.task.id);
+        else finish(run);
+    };
+    const auto run_graph = [&](const graphs::SegmentationGraph& g, const std::vector<engine::ModelTask>& list,
+                               const graphs::ModelCallback& callback) {
+        return args.serial ? g.run_serial(list, callback) : g.run(list, callback);
+    };
+    std::vector<graphs::ModelRun> runs = run_graph(graph, todo, on_done);
+    if (!deferred.empty()) {
+        std::sort(deferred.begin(), deferred.end());
+        std::cerr << "holoflow: " << deferred.size() << " model(s) over their share of the memory limit ("
+                  << (options.segment.conformal.max_solver_bytes >> 20) << " MiB); computing them one at a time with "
+                  << (alone.segment.conformal.max_solver_bytes >> 20) << " MiB\n";
+        std::vector<engine::ModelTask> again;
+        for (std::size_t id : deferred) {
+            engine::ModelTask task = todo[id];
+            task.id = again.size();
+            again.push_back(std::move(task));
+        }
+        std::vector<graphs::ModelRun> rerun = run_graph(graphs::SegmentationGraph(alone, &cache), again, finish);
+        for (std::size_t k = 0; k < deferred.size(); ++k) {
+            rerun[k].outcome.task.id = deferred[k];
+            runs[deferred[k]] = std::move(rerun[k]);
+        }
+    }
     progress.finish();
     for (std::size_t k = 0; k < runs.size(); ++k) {
         outcomes[todo_index[k]] = std::move(runs[k].outcome);

@@ -322,9 +322,10 @@ std::vector<Index> holes_at_failed_fans(const MeshView& surface, const kernels::
 }
 
 // The conformal stage, the zeros and the fans again on a refinement of the traced surface (same
-// shape, same vertex ids); nothing where that fails, would need more memory than allowed or
-// has more than max_faces.
-std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options, Index max_faces) {
+// shape, same vertex ids); nothing where that fails, would need more memory than allowed (counted
+// in `over_memory_limit`) or has more than max_faces.
+std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options, Index max_faces,
+                                                   Index& over_memory_limit) {
     if (surface.n_faces() > max_faces) return std::nullopt;
     SegmentationWork refined;
     refined.options = options;
@@ -341,6 +342,7 @@ std::optional<SegmentationWork> on_refined_surface(MeshView surface, const Segme
     } catch (const SolverFailure&) {
         return std::nullopt;
     } catch (const ResourceLimit&) {
+        ++over_memory_limit;
         return std::nullopt;
     }
     return refined;
@@ -400,7 +402,8 @@ void fans(SegmentationWork& work) {
     };
     const auto midpoint_try = [&] {
         std::optional<SegmentationWork> refined =
-            on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces);
+            on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces,
+                               r.tries_over_memory_limit);
         tried(refined);
         return refined;
     };
@@ -411,7 +414,7 @@ void fans(SegmentationWork& work) {
         MeshView bisected = bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular));
         std::optional<SegmentationWork> next;
         if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
-            next = on_refined_surface(std::move(bisected), try_options(), max_faces);
+            next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.tries_over_memory_limit);
         tried(next);
         // After a midpoint step, a second one competes with a first bisection round that left
         // regions failed; it is kept only where fewer fail on it (it adds more faces).
@@ -435,7 +438,8 @@ void fans(SegmentationWork& work) {
         if (holes.empty()) break;
         kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
         if (filled.holes == 0) break;
-        std::optional<SegmentationWork> closed = on_refined_surface(std::move(filled.mesh), try_options(), max_faces);
+        std::optional<SegmentationWork> closed =
+            on_refined_surface(std::move(filled.mesh), try_options(), max_faces, r.tries_over_memory_limit);
         tried(closed);
         if (!keep_if_fewer_fail(std::move(closed), false)) break;
         r.filled_holes += filled.holes;
@@ -804,6 +808,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
           {"left_open", r.holes_left_open},
           {"at_failed_fans", r.holes_filled_at_failed_fans}}},
         {"fan_refinements", r.fan_refinements},
+        {"tries_over_memory_limit", r.tries_over_memory_limit},
         {"zero_count", z.total_order},
         {"torus_modulus", r.is_torus() ? nlohmann::json::array({(r.torus_periods[1] / r.torus_periods[0]).real(),
                                                                  (r.torus_periods[1] / r.torus_periods[0]).imag()})

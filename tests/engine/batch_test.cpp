@@ -195,6 +195,52 @@ TEST(BatchCommand, KilledRunResumesToTheSameSummary) {
     EXPECT_NE(forced.out.find(", 0 reused"), std::string::npos) << forced.out;
 }
 
+// Models computed side by side share the memory limit; one whose refinement that share refuses
+// is computed again alone, so the batch writes what `segment` writes with the same limit.
+TEST(BatchCommand, ModelsOverTheirMemoryShareAreComputedAgainAlone) {
+    const TempDir dir;
+    const std::string turbine = corpus("turbine.off");  // 3 fans fail until a refinement
+    const auto segment = [&](std::size_t mib, const std::string& name) {
+        const fs::path out = dir.path() / name;
+        const test::CommandResult r = run_cli("segment '" + turbine + "' -o '" + out.string() + "' --json --max-memory " +
+                                              std::to_string(mib));
+        return std::pair{r, r.status == 0 ? nlohmann::json::parse(r.out) : nlohmann::json()};
+    };
+    // The limit: the input's need (raised after each refusal: the dense forms are counted before
+    // the homology, the factor after the analysis), then doubled until no refinement is
+    // refused; at half of it, the share of 2 threads, one is.
+    std::size_t limit = 1;
+    auto [run, report] = segment(limit, "fits");
+    for (int attempt = 0; run.status != 0; ++attempt) {
+        ASSERT_LT(attempt, 3) << run.err;
+        const std::size_t at = run.err.find("about ");
+        ASSERT_NE(at, std::string::npos) << run.err;
+        limit = std::stoul(run.err.substr(at + 6)) + 1;
+        std::tie(run, report) = segment(limit, "fits");
+    }
+    ASSERT_GT(report["tries_over_memory_limit"], 0) << "the input fits, its refinement not";
+    while (report["tries_over_memory_limit"] != 0) {
+        ASSERT_LT(limit, 1u << 16) << "the refinement never fits";
+        report = segment(limit *= 2, "fits").second;
+        ASSERT_TRUE(report.is_object()) << limit;
+    }
+    const fs::path inputs = dir.path() / "in";
+    fs::create_directories(inputs);
+    fs::create_symlink(turbine, inputs / "a.off");
+    fs::create_symlink(turbine, inputs / "b.off");
+    for (const char* threads : {"2", "1"}) {
+        const fs::path out = dir.path() / (std::string("batch") + threads);
+        const test::CommandResult r = run_cli("batch '" + inputs.string() + "' -o '" + out.string() + "' --threads " +
+                                              threads + " --max-memory " + std::to_string(limit));
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_EQ(r.err.find("computing them one at a time") != std::string::npos, std::string(threads) == "2") << r.err;
+        for (const char* model : {"a", "b"}) {
+            EXPECT_TRUE(slurp(out / model / "segments.ply") == slurp(dir.path() / "fits" / "segments.ply")) << model;
+            EXPECT_EQ(nlohmann::json::parse(slurp(out / model / "segmentation.json"))["tries_over_memory_limit"], 0);
+        }
+    }
+}
+
 TEST(BatchCommand, RefusesMissingInputsAndUnwritableOutput) {
     const TempDir dir;
     const test::CommandResult missing = run_cli("batch '" + (dir.path() / "none").string() + "' -o '" +

@@ -69,6 +69,9 @@ struct SegmentationResult {
     //! SegmentOptions::fan_refinement_rounds): traced_input is then the refined one, with the
     //! same vertex ids for the vertices it had; 0 where every fan worked.
     int fan_refinements = 0;
+    //! Refinement tries skipped because they would need more memory than
+    //! ConformalOptions::max_solver_bytes: with a higher limit the result may differ.
+    Index tries_over_memory_limit = 0;
     ConformalResult conformal;
     kernels::ZeroSet zeros;                   //!< on the working (closed) surface
     kernels::RegularisedForm regular;         //!< traced_input with zero fans
