@@ -28,6 +28,7 @@ constexpr double kFlipTol = 1e-12;  // signed uv area below -tol * (longest edge
 constexpr double kSideBulge = 1e-4;       // repaired borders: bulge of a side over its length
 constexpr Index kCornerCandidates = 32;  // border points tried per rectangle corner
 constexpr double kConcaveCorner = 1.25 * std::numbers::pi;  // a patch's angle between border edges above this
+constexpr double kBranchTurn = 3 * std::numbers::pi;  // uv angle around an inner vertex above this: it turns twice
 constexpr double kCornerGap = 1e-6;  // a concave corner at least this far off its rectangle's sides (over its size)
 constexpr double kAxisTol = 1e-6;    // directions within this (radians, or relative) count as along
 constexpr Index kOpeningCandidates = 64;  // start vertices tried per cylinder (each one short trace)
@@ -983,33 +984,57 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
         }
         if (direction != Complex(0)) best[id] = {angle, v, direction};
     }
+    // Branch points: inner vertices of a disk around which its uv turns twice or more, where a
+    // zero whose fan failed (traced from another vertex) sent no curve. One takes its patch's
+    // turn before any corner; the patch's corners come after it is split.
+    std::vector<double> turn(cm.n_vertices(), 0);
+    std::vector<char> inner(cm.n_vertices(), 1);
+    for (Index h = 0; h < cm.n_halfedges(); ++h) {
+        const PatchInfo& info = patches.info[patches.face_patch[MeshView::face(h)]];
+        if (on_border(cm, border, h)) inner[cm.tail(h)] = inner[cm.head(h)] = 0;
+        if (info.type != PatchInfo::Type::Disk || info.flipped_uv_triangles > 0) continue;
+        const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
+        turn[cm.tail(h)] += std::atan2(cross(e1, e2), (e1 * std::conj(e2)).real());
+    }
+    std::vector<Index> branch(patches.info.size(), -1);
+    for (Index h = 0; h < cm.n_halfedges(); ++h) {
+        const Index v = cm.tail(h), id = patches.face_patch[MeshView::face(h)];
+        if (inner[v] && turn[v] > kBranchTurn && !is_zero[v] && cut.original_vertex[v] >= 0 &&
+            (branch[id] < 0 || turn[v] > turn[branch[id]] + kAxisTol))
+            branch[id] = v;
+    }
     std::vector<TransversalStart> starts;
-    std::vector<const Candidate*> chosen;
-    for (const Candidate& c : best)
-        if (c.vertex >= 0) {
+    std::vector<const Candidate*> chosen;  // per start: the corner, or null for a branch point
+    for (std::size_t id = 0; id < best.size(); ++id)
+        if (branch[id] >= 0) {
+            starts.push_back({cut.original_vertex[branch[id]], TrajectoryFamily::Vertical});
+            chosen.push_back(nullptr);
+        } else if (best[id].vertex >= 0) {
+            const Candidate& c = best[id];
             starts.push_back({cut.original_vertex[c.vertex],
                               c.direction.real() == 0 ? TrajectoryFamily::Vertical : TrajectoryFamily::Horizontal});
             chosen.push_back(&c);
         }
     if (starts.empty()) return {};
     const std::vector<Trajectory> traced = trace_transversals(mesh, tau, zero_vertices, starts, trajectories);
+    // A curve already among `trajectories` (its corner was not split by it) is not sent again.
+    const auto is_new = [&](const Trajectory& c) {
+        return std::none_of(trajectories.begin(), trajectories.end(), [&](const Trajectory& t) {
+            return t.start_vertex == c.start_vertex && t.family == c.family && t.first_face == c.first_face;
+        });
+    };
     std::vector<Trajectory> out;
-    for (std::size_t k = 0; k < chosen.size(); ++k) {
-        const Trajectory* pick = nullptr;
+    for (std::size_t k = 0; k < chosen.size(); ++k)
         for (const Trajectory& t : traced) {
-            if (t.start_vertex != starts[k].vertex || t.family != starts[k].family) continue;
-            const Complex step = first_step(mesh, tau, t);
-            if ((step * std::conj(chosen[k]->direction)).real() > kAxisTol * std::abs(step)) {
-                pick = &t;
-                break;
+            if (t.start_vertex != starts[k].vertex || t.family != starts[k].family || !is_new(t)) continue;
+            // A branch point sends all its curves; a corner the one along its direction.
+            if (chosen[k] != nullptr) {
+                const Complex step = first_step(mesh, tau, t);
+                if (!((step * std::conj(chosen[k]->direction)).real() > kAxisTol * std::abs(step))) continue;
             }
+            out.push_back(t);
+            if (chosen[k] != nullptr) break;
         }
-        // A curve already among `trajectories` (its corner was not split by it) is not sent again.
-        const auto same = [&](const Trajectory& t) {
-            return t.start_vertex == pick->start_vertex && t.family == pick->family && t.first_face == pick->first_face;
-        };
-        if (pick && std::none_of(trajectories.begin(), trajectories.end(), same)) out.push_back(*pick);
-    }
     return out;
 }
 

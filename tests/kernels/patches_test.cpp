@@ -203,6 +203,69 @@ TEST(CornerTransversals, ConcaveCornerIsContinuedIntoItsPatch) {
                     .empty());
 }
 
+// A polar disk (a centre, then `rings` rings of 12 vertices) with the image z^2 / 2: one disk
+// patch whose uv turns twice around the centre, as around a zero whose fan failed and that was
+// traced from another vertex.
+struct BranchDisk {
+    MeshView mesh;
+    Eigen::VectorXcd tau;
+    explicit BranchDisk(int rings) {
+        constexpr int kAround = 12;
+        PointMatrix V(1 + rings * kAround, 3);
+        V.row(0).setZero();
+        TriangleMatrix F(kAround * (2 * rings - 1), 3);
+        Index f = 0;
+        const auto ring = [&](int r, int k) { return 1 + (r - 1) * kAround + (k % kAround); };
+        for (int r = 1; r <= rings; ++r)
+            for (int k = 0; k < kAround; ++k) {
+                const double angle = 2 * std::numbers::pi * k / kAround, radius = static_cast<double>(r) / rings;
+                V.row(ring(r, k)) << radius * std::cos(angle), radius * std::sin(angle), 0;
+                if (r == 1) F.row(f++) << 0, ring(1, k), ring(1, k + 1);
+                else F.row(f++) << ring(r - 1, k), ring(r, k), ring(r, k + 1), F.row(f++) << ring(r - 1, k), ring(r, k + 1), ring(r - 1, k + 1);
+            }
+        mesh = make_mesh_view(V, F);
+        std::vector<Complex> image;
+        for (Index v = 0; v < mesh.n_vertices(); ++v) image.push_back(point(mesh, v) * point(mesh, v) / 2.0);
+        tau = form_of(mesh, image);
+    }
+};
+
+// The branch point sends every curve of one family (the diagonals x = +-y, four of them), to the
+// boundary; they split the disk into four patches around which nothing turns twice. A zero
+// there is no start.
+TEST(CornerTransversals, BranchPointInsideADiskSendsAllItsCurves) {
+    const BranchDisk d(4);
+    const std::vector<char> none(d.mesh.n_edges(), 0);
+    const CutMesh uncut = cut_along_trajectories(d.mesh, d.tau, {});
+    const Patches before = compute_patches(uncut.mesh, uncut.tau, none);
+    ASSERT_EQ(before.info.size(), 1u);
+    ASSERT_EQ(before.info[0].type, PatchInfo::Type::Disk);
+    ASSERT_EQ(before.info[0].flipped_uv_triangles, 0);
+
+    const std::vector<Trajectory> curves = corner_transversals(d.mesh, d.tau, {}, {}, uncut, none, before);
+    ASSERT_EQ(curves.size(), 4u);
+    for (const Trajectory& t : curves) {
+        EXPECT_EQ(t.start_vertex, 0);
+        EXPECT_EQ(t.family, TrajectoryFamily::Vertical);
+        EXPECT_EQ(t.end, Trajectory::End::Boundary);
+        // To the middle of a boundary edge's image: the chord of radius 1/2 between 60 and 120 degrees.
+        EXPECT_NEAR(t.length, std::sqrt(3.0) / 4, 1e-12);
+    }
+    const CutMesh cut = cut_along_trajectories(d.mesh, d.tau, curves);
+    std::vector<char> border(cut.mesh.n_edges(), 0);
+    for (Index e = 0; e < cut.mesh.n_edges(); ++e) border[e] = cut.edge_trajectory[e] != kNoBorder;
+    const Patches after = compute_patches(cut.mesh, cut.tau, border);
+    ASSERT_EQ(after.info.size(), 4u);
+    for (const PatchInfo& info : after.info) {
+        EXPECT_EQ(info.type, PatchInfo::Type::Disk);
+        EXPECT_EQ(info.flipped_uv_triangles, 0);
+    }
+    for (const Trajectory& t : corner_transversals(d.mesh, d.tau, {}, curves, cut, border, after))
+        EXPECT_NE(t.start_vertex, 0);
+    const std::vector<Index> zero{0};
+    EXPECT_TRUE(corner_transversals(d.mesh, d.tau, zero, {}, uncut, none, before).empty());
+}
+
 TEST(CornerTransversals, RefusesACutWithOthersBorderOrPatches) {
     const CornerSheet c(false);
     const CutMesh uncut = cut_along_trajectories(c.mesh, c.tau, {});

@@ -88,15 +88,18 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
                                               std::span<const char> border, const Patches& patches);
 
 //! \brief Curves that make rectangles of disk patches with a concave corner (layout mode: an L,
-//! or a slit that ends inside, where a zero whose fan failed sent no curve into the patch). Per
-//! disk without flipped uv triangles, the border vertex where the patch's uv angle between two
+//! or a slit that ends inside, where a zero whose fan failed sent no curve into the patch) or a
+//! branch point (an inner vertex, of `mesh` and not a zero, around which the patch's uv turns
+//! twice or more: such a zero traced from another vertex). Per disk without flipped uv triangles
+//! with a branch point, every curve of the vertical family through the one that turns most (ties
+//! to the smaller id); else the border vertex where the patch's uv angle between two
 //! consecutive border edges is largest, if over 225 degrees (a vertex of `mesh`, not a zero,
 //! over 1e-6 of the patch's size off its rectangle's sides); from there the level curve
 //! (trace_transversals) along the axis direction into that angle farthest from its two edges
 //! (a slit's own line beyond its end; at a 270 degree corner the first of the two in the order
-//! +u, +v, -u, -v). It ends at the first curve of the other family, so it splits the patch; one
-//! curve per patch per call, none that `trajectories` has already (same start, family and first
-//! face). Deterministic.
+//! +u, +v, -u, -v), one curve. Each ends at the first curve of the other family, so it splits
+//! the patch; none is one that `trajectories` has already (same start, family and first face).
+//! Deterministic.
 //! \pre as cylinder_transversals.  \throw InvalidInput on mismatched sizes.
 std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::VectorXcd& tau,
                                             std::span<const Index> zero_vertices,
