@@ -327,14 +327,16 @@ int run_batch(const BatchArgs& args) {
     if (!deferred.empty()) {
         std::sort(deferred.begin(), deferred.end());
         std::cerr << "holoflow: " << deferred.size() << " model(s) over their share of the memory limit ("
-                  << (options.segment.conformal.max_solver_bytes >> 20) << " MiB); computing them one at a time with "
-                  << (alone.segment.conformal.max_solver_bytes >> 20) << " MiB\n";
+                  << (options.segment.conformal.max_solver_bytes >> 20) << " MiB), computed again one at a time with "
+                  << (alone.segment.conformal.max_solver_bytes >> 20) << " MiB:";
         std::vector<engine::ModelTask> again;
         for (std::size_t id : deferred) {
             engine::ModelTask task = todo[id];
+            std::cerr << ' ' << task.name;
             task.id = again.size();
             again.push_back(std::move(task));
         }
+        std::cerr << std::endl;
         std::vector<graphs::ModelRun> rerun = run_graph(graphs::SegmentationGraph(alone, &cache), again, finish);
         for (std::size_t k = 0; k < deferred.size(); ++k) {
             rerun[k].outcome.task.id = deferred[k];

@@ -233,7 +233,10 @@ TEST(BatchCommand, ModelsOverTheirMemoryShareAreComputedAgainAlone) {
         const test::CommandResult r = run_cli("batch '" + inputs.string() + "' -o '" + out.string() + "' --threads " +
                                               threads + " --max-memory " + std::to_string(limit));
         ASSERT_EQ(r.status, 0) << r.err;
-        EXPECT_EQ(r.err.find("computing them one at a time") != std::string::npos, std::string(threads) == "2") << r.err;
+        EXPECT_EQ(r.err.find("computed again one at a time with " + std::to_string(limit) + " MiB: a b\n") !=
+                      std::string::npos,
+                  std::string(threads) == "2")
+            << r.err;
         for (const char* model : {"a", "b"}) {
             EXPECT_TRUE(slurp(out / model / "segments.ply") == slurp(dir.path() / "fits" / "segments.ply")) << model;
             EXPECT_EQ(nlohmann::json::parse(slurp(out / model / "segmentation.json"))["tries_over_memory_limit"], 0);
