@@ -4,6 +4,8 @@
 #include <complex>
 #include <cstdint>
 #include <map>
+#include <optional>
+#include <span>
 
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
@@ -88,6 +90,97 @@ bool split(PolygonPool& pool, const FaceSegment& s) {
         return true;
     }
     return false;
+}
+
+// The face's pieces as the faces of the plane graph its border and all its segments make (chart
+// positions `local`: point id, position), for segments that wait on each other in a cycle (a
+// pinwheel: each stops on the next, none has both its end points on a piece before the others
+// are in). Each piece is traced with its inside on the left: at each point, on along the first
+// edge clockwise from the one it came by. False, leaving `pool` as it was, where the pieces are
+// no simple counter-clockwise polygons tiling the face (a segment ending on nothing, edges
+// along one line).
+bool split_as_arrangement(const Polygon& face, std::span<const FaceSegment> segs,
+                          std::span<const std::pair<Index, Complex>> local, PolygonPool& pool) {
+    struct Edge {
+        Index from, to, label, piece;
+    };
+    std::vector<Edge> edges;
+    const auto m = face.points.size();
+    for (std::size_t k = 0; k < m; ++k) edges.push_back({face.points[k], face.points[(k + 1) % m], face.edge[k], face.piece[k]});
+    for (const FaceSegment& s : segs) {
+        Index last = s.from;
+        const auto add = [&](Index to) {
+            edges.push_back({last, to, s.trajectory, kInner});
+            edges.push_back({to, last, s.trajectory, kInner});
+            last = to;
+        };
+        for (Index x : s.inner) add(x);
+        add(s.to);
+    }
+    const auto position = [&](Index id) -> std::optional<Complex> {
+        for (const auto& [point, z] : local)
+            if (point == id) return z;
+        return std::nullopt;
+    };
+    std::vector<Complex> from_pos(edges.size()), to_pos(edges.size()), direction(edges.size());
+    double scale = 0;
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+        const std::optional<Complex> a = position(edges[i].from), b = position(edges[i].to);
+        if (!a || !b || edges[i].from == edges[i].to) return false;
+        from_pos[i] = *a, to_pos[i] = *b;
+        direction[i] = *b - *a;  // the way back along it is exactly the other direction, bit for bit
+        scale = std::max(scale, std::abs(direction[i]));
+    }
+    // Out of each point, its edges in counter-clockwise order.
+    std::vector<std::size_t> order(edges.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return std::pair{edges[a].from, std::arg(direction[a])} < std::pair{edges[b].from, std::arg(direction[b])};
+    });
+    for (std::size_t k = 0; k + 1 < order.size(); ++k) {
+        const std::size_t a = order[k], b = order[k + 1];
+        if (edges[a].from == edges[b].from && std::abs(cross(direction[a], direction[b])) <= 1e-12 * scale * scale &&
+            (direction[a] * std::conj(direction[b])).real() > 0)
+            return false;  // two edges out of one point along one line
+    }
+    const auto next = [&](std::size_t e) {  // first edge out of e's head clockwise from the way back
+        const double back = std::arg(from_pos[e] - to_pos[e]);
+        std::size_t best = edges.size(), largest = edges.size();
+        for (std::size_t k : order) {
+            if (edges[k].from != edges[e].to) continue;
+            largest = k;
+            if (std::arg(direction[k]) < back) best = k;
+        }
+        return best != edges.size() ? best : largest;  // none below: around past the largest
+    };
+    std::vector<char> used(edges.size(), 0);
+    std::vector<Polygon> pieces;
+    double area = 0, face_area = 0;
+    for (std::size_t k = 0; k < m; ++k) face_area += cross(from_pos[k], to_pos[k]);
+    for (std::size_t start = 0; start < edges.size(); ++start) {
+        if (used[start]) continue;
+        Polygon piece;
+        double twice_area = 0;
+        std::size_t e = start;
+        do {
+            if (e == edges.size() || used[e]) return false;
+            if (std::find(piece.points.begin(), piece.points.end(), edges[e].from) != piece.points.end()) return false;
+            used[e] = 1;
+            piece.push(edges[e].from, edges[e].label, edges[e].piece);
+            twice_area += cross(from_pos[e], to_pos[e]);
+            e = next(e);
+        } while (e != start);
+        if (piece.points.size() < 3 || !(twice_area > 0)) return false;
+        area += twice_area;
+        pieces.push_back(std::move(piece));
+    }
+    if (!(std::abs(area - face_area) <= 1e-9 * std::abs(face_area))) return false;
+    pool.n = 0;
+    for (Polygon& piece : pieces) {
+        if (pool.n == pool.polys.size()) pool.polys.emplace_back();
+        pool.polys[pool.n++] = std::move(piece);
+    }
+    return true;
 }
 
 // Ear clipping in the chart; a fan from the first point when no proper ear is left. `work` is
@@ -335,6 +428,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 }
                 waiting.swap(still);
             }
+            if (!waiting.empty() && split_as_arrangement(poly, segs, local, pool)) waiting.clear();
             skipped[slot] += static_cast<Index>(waiting.size());
             // Point ids to dense slots of the face's chart positions.
             std::sort(local.begin(), local.end(), [](const auto& a, const auto& b) { return a.first < b.first; });

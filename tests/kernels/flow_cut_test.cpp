@@ -114,6 +114,52 @@ TEST(FlowCut, CurveThatCannotBePlacedIsSkippedAndItsPointDropped) {
     EXPECT_NEAR(area, 1.0, kAreaTol);
 }
 
+// A pinwheel in face A B C: T0 from A stops on T1, T1 from B on T2, T2 from C on T3, and T3,
+// which comes from D across AC at X = (0.5, 0.5), stops on T0 (families alternate, as the
+// motorcycle rule makes them). Each stop lies on a segment that itself waits for another, so no
+// order of chords places them; the face is split as the plane graph they make instead: four
+// pieces around the quadrilateral of the four stops, and that quadrilateral.
+TEST(FlowCut, PinwheelOfCurvesStoppingOnEachOtherIsPlaced) {
+    const Square square;
+    const std::array<std::array<double, 3>, 4> stop{{{0.0667, 0.7792, 0.1541},    // (0.9333, 0.1541)
+                                                     {0.2923, 0.0327, 0.6750},    // (0.7077, 0.6750)
+                                                     {0.4775, 0.0535, 0.4690},    // (0.5225, 0.4690)
+                                                     {0.2297, 0.6431, 0.1272}}};  // (0.7703, 0.1272)
+    std::vector<Trajectory> ts(4);
+    for (Index i = 0; i < 4; ++i) {
+        Trajectory& t = ts[i];
+        t.start_vertex = i < 3 ? i : 3;
+        t.first_face = i < 3 ? 0 : 1;
+        t.family = i % 2 == 0 ? TrajectoryFamily::Vertical : TrajectoryFamily::Horizontal;
+        if (i == 3) t.crossings = {{3, 0.5, 0.7}};
+        t.end = Trajectory::End::Collision;
+        t.end_barycentric = stop[i];
+        t.blocker = (i + 1) % 4;
+        t.blocker_segment = i == 2 ? 1 : 0;  // T3's second segment lies in A B C
+        t.blocker_length = 0.5;
+        t.length = 1.0 + 0.1 * static_cast<double>(i);
+    }
+    const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, ts);
+    EXPECT_EQ(cut.skipped_segments, 0);
+    EXPECT_EQ(cut.mesh.n_vertices(), 9);  // A B C D, X and the four stops
+    double area = 0;
+    for (Index f = 0; f < cut.mesh.n_faces(); ++f) {
+        const Eigen::RowVector3d a = cut.mesh.V.row(cut.mesh.F(f, 0)), b = cut.mesh.V.row(cut.mesh.F(f, 1)),
+                                 c = cut.mesh.V.row(cut.mesh.F(f, 2));
+        const double z = (b - a).cross(c - a)(2) / 2;
+        EXPECT_GT(z, kAreaTol);
+        area += z;
+    }
+    EXPECT_NEAR(area, 1.0, kAreaTol);
+    // Each curve is a border up to its stop, in pieces split where the one before it stops on it:
+    // T3 also has its piece D-X in A C D.
+    std::array<int, 4> edges{};
+    for (Index e = 0; e < cut.mesh.n_edges(); ++e)
+        if (cut.edge_trajectory[e] >= 0) ++edges[cut.edge_trajectory[e]];
+    EXPECT_EQ(edges, (std::array<int, 4>{2, 2, 2, 3}));
+    EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
+}
+
 // The cutter pairs halfedges by construction (pieces of input edges, chords inside a face); it
 // must find the pairing that matching vertex pairs over the whole cut mesh gives.
 TEST(FlowCut, PairingIsTheOneByVertexPairs) {

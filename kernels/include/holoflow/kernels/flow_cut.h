@@ -30,8 +30,10 @@ struct CutMesh {
 //! \brief Splits every face crossed by the trajectories: crossing points become vertices on the
 //! edges (shared by both faces), collision points vertices inside faces, and each face is cut
 //! along its segments (purely combinatorially: a segment splits the one sub-polygon that has
-//! both its end points, with the collision points of later curves on it in arrival order) and
-//! the pieces triangulated by ear clipping in the face's image chart. Faces in parallel.
+//! both its end points, with the collision points of later curves on it in arrival order; where
+//! segments stop on each other in a cycle, a pinwheel, the face's pieces are instead those of
+//! the plane graph its border and segments make in its image chart) and the pieces triangulated
+//! by ear clipping in that chart. Faces in parallel.
 //! `edge_label` (empty, or one per edge of `mesh`, kNoBorder for none) marks further borders,
 //! e.g. a homology cut graph (labels other than trajectory ids); sub-edges inherit it.
 //! \pre trajectories traced on `mesh` with `tau` (trace_trajectories).  \throw InvalidInput.
