@@ -96,9 +96,9 @@ bool split(PolygonPool& pool, const FaceSegment& s) {
 // positions `local`: point id, position), for segments that wait on each other in a cycle (a
 // pinwheel: each stops on the next, none has both its end points on a piece before the others
 // are in). Each piece is traced with its inside on the left: at each point, on along the first
-// edge clockwise from the one it came by. False, leaving `pool` as it was, where the pieces are
-// no simple counter-clockwise polygons tiling the face (a segment ending on nothing, edges
-// along one line).
+// edge clockwise from the one it came by. False, leaving `pool` as it was, where that graph is
+// no plane one or its pieces no simple counter-clockwise polygons (segments crossing or ending
+// on nothing, edges along one line, a face folded in its chart).
 bool split_as_arrangement(const Polygon& face, std::span<const FaceSegment> segs,
                           std::span<const std::pair<Index, Complex>> local, PolygonPool& pool) {
     struct Edge {
@@ -143,6 +143,24 @@ bool split_as_arrangement(const Polygon& face, std::span<const FaceSegment> segs
             (direction[a] * std::conj(direction[b])).real() > 0)
             return false;  // two edges out of one point along one line
     }
+    // No two edges without a common end point may meet (segments crossing in a folded face), nor
+    // an end point lie on another edge.
+    const double near = 1e-12 * scale * scale;
+    const auto inside = [&](std::size_t i, Complex p) {
+        const Complex d = direction[i], q = p - from_pos[i];
+        const double t = (q * std::conj(d)).real() / std::norm(d);
+        return std::abs(cross(d, q)) <= near && t > 0 && t < 1;
+    };
+    for (std::size_t i = 0; i < edges.size(); ++i)
+        for (std::size_t j = i + 1; j < edges.size(); ++j) {
+            const Edge &a = edges[i], &b = edges[j];
+            if (a.from == b.from || a.from == b.to || a.to == b.from || a.to == b.to) continue;
+            const double s1 = cross(direction[i], from_pos[j] - from_pos[i]), s2 = cross(direction[i], to_pos[j] - from_pos[i]);
+            const double s3 = cross(direction[j], from_pos[i] - from_pos[j]), s4 = cross(direction[j], to_pos[i] - from_pos[j]);
+            if ((s1 * s2 < 0 && s3 * s4 < 0) || inside(i, from_pos[j]) || inside(i, to_pos[j]) || inside(j, from_pos[i]) ||
+                inside(j, to_pos[i]))
+                return false;
+        }
     const auto next = [&](std::size_t e) {  // first edge out of e's head clockwise from the way back
         const double back = std::arg(from_pos[e] - to_pos[e]);
         std::size_t best = edges.size(), largest = edges.size();
@@ -155,8 +173,6 @@ bool split_as_arrangement(const Polygon& face, std::span<const FaceSegment> segs
     };
     std::vector<char> used(edges.size(), 0);
     std::vector<Polygon> pieces;
-    double area = 0, face_area = 0;
-    for (std::size_t k = 0; k < m; ++k) face_area += cross(from_pos[k], to_pos[k]);
     for (std::size_t start = 0; start < edges.size(); ++start) {
         if (used[start]) continue;
         Polygon piece;
@@ -171,10 +187,8 @@ bool split_as_arrangement(const Polygon& face, std::span<const FaceSegment> segs
             e = next(e);
         } while (e != start);
         if (piece.points.size() < 3 || !(twice_area > 0)) return false;
-        area += twice_area;
         pieces.push_back(std::move(piece));
     }
-    if (!(std::abs(area - face_area) <= 1e-9 * std::abs(face_area))) return false;
     pool.n = 0;
     for (Polygon& piece : pieces) {
         if (pool.n == pool.polys.size()) pool.polys.emplace_back();

@@ -160,6 +160,26 @@ TEST(FlowCut, PinwheelOfCurvesStoppingOnEachOtherIsPlaced) {
     EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
 }
 
+// Two curves of one family crossing in a face (only a face folded in the image lets them): no
+// plane graph splits it, so the later one is still skipped, and the mesh stays valid.
+TEST(FlowCut, CurvesCrossingInAFaceAreSkipped) {
+    const Square square;
+    std::vector<Trajectory> ts(2);
+    ts[0].start_vertex = 0;  // A to the middle of BC
+    ts[0].crossings = {{1, 0.5, 1.1}};
+    ts[0].length = 1.1;
+    ts[1].start_vertex = 2;  // C to the middle of AB, across the first at (2/3, 1/3)
+    ts[1].crossings = {{0, 0.5, 1.2}};
+    ts[1].length = 1.2;
+    for (Trajectory& t : ts) {
+        t.first_face = 0;
+        t.end = Trajectory::End::Boundary;
+    }
+    const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, ts);
+    EXPECT_EQ(cut.skipped_segments, 1);
+    EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
+}
+
 // The cutter pairs halfedges by construction (pieces of input edges, chords inside a face); it
 // must find the pairing that matching vertex pairs over the whole cut mesh gives.
 TEST(FlowCut, PairingIsTheOneByVertexPairs) {
