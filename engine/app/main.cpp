@@ -53,7 +53,7 @@ int run_guarded(const std::function<int()>& body) {
 // Loading options of every subcommand.
 struct LoadArgs {
     std::string components = "all";
-    std::string pinched_vertices = "split";
+    std::string pinched_vertices = "split", zero_area_faces = "repair";
     std::size_t max_faces = 0;
 
     void add_to(CLI::App& command) {
@@ -65,6 +65,11 @@ struct LoadArgs {
             .add_option("--pinched-vertices", pinched_vertices,
                         "a vertex whose faces form several fans: split it into one vertex per fan, or refuse the mesh")
             ->check(CLI::IsMember({"split", "refuse"}));
+        command
+            .add_option("--zero-area-faces", zero_area_faces,
+                        "triangles with collinear or coincident corners: remove them by edge collapses and flips "
+                        "that keep the topology, or refuse the mesh")
+            ->check(CLI::IsMember({"repair", "refuse"}));
         command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
     }
     engine::LoadOptions options() const {
@@ -73,6 +78,7 @@ struct LoadArgs {
                                                : engine::ComponentPolicy::All;
         o.pinched_vertices = pinched_vertices == "refuse" ? engine::PinchedVertexPolicy::Refuse
                                                           : engine::PinchedVertexPolicy::Split;
+        o.zero_area_faces = zero_area_faces == "refuse" ? engine::ZeroAreaPolicy::Refuse : engine::ZeroAreaPolicy::Repair;
         o.max_faces = max_faces;
         return o;
     }
@@ -203,7 +209,7 @@ struct SegmentSettings {
     //! What a finished model's results depend on: a re-run with other values recomputes it.
     nlohmann::json fingerprint() const {
         return {{"mode", mode}, {"laplacian", laplacian}, {"component", load.components},
-                {"pinched_vertices", load.pinched_vertices},
+                {"pinched_vertices", load.pinched_vertices}, {"zero_area_faces", load.zero_area_faces},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
                 {"fill_holes", fill_holes}, {"max_working_genus", max_working_genus},
                 {"keep_holes_at_failed_fans", keep_holes_at_failed_fans}, {"max_memory_mb", memory_limit_bytes() >> 20},

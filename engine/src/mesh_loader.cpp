@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <span>
 #include <sstream>
 #include <string>
 
@@ -115,6 +116,121 @@ void triangulate(const PolygonSoup& soup, const std::int64_t* corner, std::size_
 }
 
 // For every halfedge, the other halfedge on the same vertex pair (or -1 on the boundary).
+// Zero-area triangles removed by local edits that keep the surface's topology, in rounds (an
+// edit's neighbours wait for the next round, whose adjacency is fresh):
+// - two corners at one place (the shortest edge under 1e-9 of the longest): that edge collapses
+//   into its smaller vertex, where the two ends share no neighbour but the triangles' third
+//   corners and do not join two boundary points across the inside;
+// - a corner m inside the opposite edge x y: that edge flips, its other triangle x y d becoming
+//   x m d and m y d, where m and d are not joined yet.
+// Triangles whose edits are not allowed stay (and are refused after).
+constexpr double kCoincidentRelative = 1e-9;
+constexpr int kZeroAreaRounds = 16;
+
+void repair_zero_area(const PolygonSoup& soup, std::vector<std::array<std::int64_t, 3>>& triangles, LoadReport& report) {
+    const auto n_v = static_cast<std::int64_t>(soup.n_vertices());
+    for (int round = 0; round < kZeroAreaRounds; ++round) {
+        std::vector<std::size_t> flat;
+        for (std::size_t t = 0; t < triangles.size(); ++t)
+            if (zero_area(point(soup, triangles[t][0]), point(soup, triangles[t][1]), point(soup, triangles[t][2])))
+                flat.push_back(t);
+        if (flat.empty()) return;
+        // Triangles around each vertex.
+        std::vector<std::size_t> start(static_cast<std::size_t>(n_v) + 1, 0), around(3 * triangles.size());
+        for (const auto& tri : triangles)
+            for (std::int64_t v : tri) ++start[static_cast<std::size_t>(v) + 1];
+        std::partial_sum(start.begin(), start.end(), start.begin());
+        std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+        for (std::size_t t = 0; t < triangles.size(); ++t)
+            for (std::int64_t v : triangles[t]) around[fill[static_cast<std::size_t>(v)]++] = t;
+        const auto star = [&](std::int64_t v) {
+            return std::span(around).subspan(start[v], start[v + 1] - start[v]);
+        };
+        const auto contains = [&](std::size_t t, std::int64_t v) {
+            return std::find(triangles[t].begin(), triangles[t].end(), v) != triangles[t].end();
+        };
+        const auto neighbours = [&](std::int64_t v) {  // with the number of triangles on each edge
+            std::vector<std::pair<std::int64_t, int>> out;
+            for (std::size_t t : star(v))
+                for (std::int64_t w : triangles[t])
+                    if (w != v) out.emplace_back(w, 1);
+            std::sort(out.begin(), out.end());
+            std::vector<std::pair<std::int64_t, int>> merged;
+            for (const auto& [w, c] : out)
+                if (!merged.empty() && merged.back().first == w) ++merged.back().second;
+                else merged.emplace_back(w, c);
+            return merged;
+        };
+        const auto on_boundary = [&](const std::vector<std::pair<std::int64_t, int>>& ring) {
+            return std::any_of(ring.begin(), ring.end(), [](const auto& n) { return n.second == 1; });
+        };
+        std::vector<char> touched(static_cast<std::size_t>(n_v), 0), dead(triangles.size(), 0);
+        bool changed = false;
+        for (std::size_t t : flat) {
+            const std::array<std::int64_t, 3> tri = triangles[t];
+            if (dead[t] || touched[tri[0]] || touched[tri[1]] || touched[tri[2]]) continue;
+            // Corner k faces edge k+1 -> k+2.
+            std::array<double, 3> length{};
+            for (int k = 0; k < 3; ++k)
+                length[k] = (point(soup, tri[(k + 1) % 3]) - point(soup, tri[(k + 2) % 3])).norm();
+            const int longest = static_cast<int>(std::max_element(length.begin(), length.end()) - length.begin());
+            const int shortest = static_cast<int>(std::min_element(length.begin(), length.end()) - length.begin());
+            if (length[shortest] <= kCoincidentRelative * length[longest]) {
+                std::int64_t p = tri[(shortest + 1) % 3], q = tri[(shortest + 2) % 3];
+                if (q < p) std::swap(p, q);
+                const auto ring_p = neighbours(p), ring_q = neighbours(q);
+                std::vector<std::int64_t> common, opposite;
+                for (const auto& [w, c] : ring_p)
+                    if (std::any_of(ring_q.begin(), ring_q.end(), [&](const auto& n) { return n.first == w; }))
+                        common.push_back(w);
+                for (std::size_t u : star(p))
+                    if (contains(u, q))
+                        for (std::int64_t w : triangles[u])
+                            if (w != p && w != q) opposite.push_back(w);
+                std::sort(opposite.begin(), opposite.end());
+                const bool inner_edge = opposite.size() == 2;
+                if (common != opposite || (inner_edge && on_boundary(ring_p) && on_boundary(ring_q))) continue;
+                for (std::size_t u : star(q)) {
+                    if (contains(u, p)) dead[u] = 1;
+                    else std::replace(triangles[u].begin(), triangles[u].end(), q, p);
+                }
+                for (const auto& ring : {ring_p, ring_q})
+                    for (const auto& [w, c] : ring) touched[w] = 1;
+                touched[p] = touched[q] = 1;
+                ++report.collapsed_edges;
+                changed = true;
+            } else {
+                const std::int64_t m = tri[longest], x = tri[(longest + 1) % 3], y = tri[(longest + 2) % 3];
+                std::vector<std::size_t> across;
+                for (std::size_t u : star(x))
+                    if (u != t && contains(u, y)) across.push_back(u);
+                if (across.size() != 1 || dead[across[0]]) continue;
+                const std::size_t u = across[0];
+                std::int64_t d = -1;
+                for (std::int64_t w : triangles[u])
+                    if (w != x && w != y) d = w;
+                if (d == m || touched[d]) continue;
+                const auto ring_m = neighbours(m);
+                if (std::any_of(ring_m.begin(), ring_m.end(), [&](const auto& n) { return n.first == d; })) continue;
+                // Keep the winding of x y d.
+                const auto at = std::find(triangles[u].begin(), triangles[u].end(), x) - triangles[u].begin();
+                const bool x_to_y = triangles[u][(at + 1) % 3] == y;
+                const std::int64_t a = x_to_y ? x : y, b = x_to_y ? y : x;
+                triangles[t] = {a, m, d};
+                triangles[u] = {m, b, d};
+                touched[x] = touched[y] = touched[m] = touched[d] = 1;
+                ++report.flipped_edges;
+                changed = true;
+            }
+        }
+        std::size_t kept = 0;
+        for (std::size_t t = 0; t < triangles.size(); ++t)
+            if (!dead[t]) triangles[kept++] = triangles[t];
+        triangles.resize(kept);
+        if (!changed) return;
+    }
+}
+
 std::vector<Index> pair_edges(const TriangleMatrix& F, Index n_vertices) {
     const HalfedgeGroups groups = group_halfedges_by_vertex_pair(F, n_vertices);
     std::vector<Index> mate(3 * static_cast<std::size_t>(F.rows()), -1);
@@ -307,6 +423,11 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
                      " triangles");
     }
 
+    const bool repair = options.zero_area_faces == ZeroAreaPolicy::Repair;
+    if (repair) {
+        repair_zero_area(soup, triangles, report);
+        if (triangles.empty()) fail(MeshErrorKind::ZeroAreaFace, "every triangle has zero area");
+    }
     for (std::size_t t = 0; t < triangles.size(); ++t) {
         const Vec3 a = point(soup, triangles[t][0]), b = point(soup, triangles[t][1]),
                    c = point(soup, triangles[t][2]);
@@ -314,7 +435,8 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
             fail(MeshErrorKind::ZeroAreaFace,
                  "triangle " + std::to_string(t) + " (vertices " + std::to_string(triangles[t][0]) +
                      ", " + std::to_string(triangles[t][1]) + ", " +
-                     std::to_string(triangles[t][2]) + ") has zero area");
+                     std::to_string(triangles[t][2]) + ") has zero area" +
+                     (repair ? " (no edge collapse or flip removes it without changing the topology)" : ""));
     }
 
     {   // duplicated faces: same vertex set, in any order or winding
@@ -338,7 +460,7 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
     for (std::size_t t = 0; t < triangles.size(); ++t)
         for (int k = 0; k < 3; ++k) F(static_cast<Eigen::Index>(t), k) = static_cast<Index>(triangles[t][k]);
     triangles = {};
-    report.unreferenced_vertices = compact_vertices(V, F);
+    report.unreferenced_vertices = compact_vertices(V, F) - report.collapsed_edges;  // collapses free one each
 
     const std::vector<Index> mate = pair_edges(F, static_cast<Index>(V.rows()));
     const Orientation o = orient(F, mate);

@@ -14,6 +14,8 @@ nlohmann::json info_report(const std::string& path, const LoadedMesh& loaded,
         {"unreferenced_vertices", r.unreferenced_vertices},
         {"welded_vertices", r.welded_vertices},
         {"split_vertices", r.split_vertices},
+        {"collapsed_edges", r.collapsed_edges},
+        {"flipped_edges", r.flipped_edges},
         {"dropped_components", r.dropped_components},
         {"dropped_faces", r.dropped_faces},
     };

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <limits>
 #include <set>
+#include <tuple>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -184,6 +185,48 @@ TEST(MeshLoader, EachBadInputHasItsKind) {
     LoadOptions limit;
     limit.max_faces = 7;
     EXPECT_EQ(kind_of(octahedron(), limit), MeshErrorKind::TooLarge);
+}
+
+// Smallest face area over the longest squared edge of its face (> 0: no flat face).
+double smallest_relative_area(const MeshView& m) {
+    double smallest = std::numeric_limits<double>::infinity();
+    for (Index f = 0; f < m.n_faces(); ++f) {
+        const Eigen::Vector3d a = m.V.row(m.F(f, 0)), b = m.V.row(m.F(f, 1)), c = m.V.row(m.F(f, 2));
+        const double longest = std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()});
+        smallest = std::min(smallest, (b - a).cross(c - a).norm() / longest);
+    }
+    return smallest;
+}
+
+// Zero-area triangles: two on an edge whose ends coincide (the octahedron's top vertex doubled,
+// as an unwelded export leaves it) go with that edge; one with a corner inside its opposite edge
+// (a T-junction closed by a flat cap) goes by flipping that edge with the triangle beyond it.
+// Both give closed genus-0 surfaces again; with ZeroAreaPolicy::Refuse they are refused.
+TEST(MeshLoader, ZeroAreaTrianglesAreRepairedUnlessRefused) {
+    std::vector<double> doubled = octahedron().positions;
+    doubled.insert(doubled.end(), {0, 0, 1});  // vertex 6 on vertex 4
+    const PolygonSoup coincident = soup_of(doubled, {{0, 2, 4}, {2, 1, 4}, {1, 3, 6}, {3, 0, 6}, {2, 0, 5}, {1, 2, 5},
+                                                     {3, 1, 5}, {0, 3, 5}, {4, 1, 6}, {0, 4, 6}});
+    std::vector<double> on_edge = octahedron().positions;
+    on_edge.insert(on_edge.end(), {0.5, 0.5, 0});  // vertex 6 inside edge 0-2
+    const PolygonSoup cap = soup_of(on_edge, {{0, 6, 4}, {6, 2, 4}, {0, 2, 6}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                              {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}});
+    for (const auto& [soup, collapsed, flipped, vertices] :
+         {std::tuple{coincident, 1u, 0u, 6}, std::tuple{cap, 0u, 1u, 7}}) {
+        const LoadedMesh m = mesh_from_soup(soup);
+        EXPECT_EQ(m.report.collapsed_edges, collapsed);
+        EXPECT_EQ(m.report.flipped_edges, flipped);
+        EXPECT_EQ(m.report.unreferenced_vertices, 0u);
+        const kernels::Topology t = kernels::compute_topology(*m.mesh);
+        EXPECT_EQ(t.vertices, vertices);
+        EXPECT_EQ(t.components, 1);
+        EXPECT_EQ(t.boundary_loops, 0);
+        EXPECT_EQ(t.euler_characteristic, 2);
+        EXPECT_GT(smallest_relative_area(*m.mesh), 0.1);
+        LoadOptions refuse;
+        refuse.zero_area_faces = ZeroAreaPolicy::Refuse;
+        EXPECT_EQ(kind_of(soup, refuse), MeshErrorKind::ZeroAreaFace);
+    }
 }
 
 // A vertex whose faces form several fans gets one vertex per fan at its position: the fan with

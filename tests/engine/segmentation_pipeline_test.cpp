@@ -6,6 +6,7 @@
 #include <limits>
 #include <numbers>
 #include <numeric>
+#include <set>
 
 #include <Eigen/Geometry>
 
@@ -647,6 +648,45 @@ TEST(Segmentation, RigidMotionAndScaleChangeNothing) {
         EXPECT_NEAR(q.width / q.height, p.width / p.height, 1e-9);
         EXPECT_EQ(c.cut.mesh.n_faces(), t.cut.mesh.n_faces());
     }
+}
+
+// eight with degenerate triangles as exports leave them: at ten places a vertex moved onto its
+// neighbour (two zero-area triangles on that edge each), and a vertex moved to the middle of
+// its opposite edge (a flat cap). The loader's repair makes the same genus-2 surface of them,
+// which segments as the original does.
+TEST(Segmentation, ZeroAreaTrianglesOfARealMeshAreRepaired) {
+    PolygonSoup soup = read_polygon_soup(test::corpus("eight.off"));
+    const auto corner = [&](std::size_t face, int k) { return soup.indices[soup.offsets[face] + k]; };
+    const auto move = [&](std::int64_t v, const Eigen::Vector3d& to) {
+        for (int i = 0; i < 3; ++i) soup.positions[3 * v + i] = to(i);
+    };
+    const auto position = [&](std::int64_t v) {
+        return Eigen::Vector3d(soup.positions[3 * v], soup.positions[3 * v + 1], soup.positions[3 * v + 2]);
+    };
+    const std::size_t faces = soup.n_polygons();
+    std::set<std::int64_t> used;  // each place on its own faces
+    for (std::size_t face = 0, spots = 0; spots < 10; face += faces / 16) {
+        ASSERT_LT(face, faces - 1);
+        const std::array<std::int64_t, 3> c{corner(face, 0), corner(face, 1), corner(face, 2)};
+        if (used.contains(c[0]) || used.contains(c[1]) || used.contains(c[2])) continue;
+        used.insert(c.begin(), c.end());
+        move(c[0], position(c[1]));
+        ++spots;
+    }
+    const std::size_t capped = faces - 1;
+    move(corner(capped, 2), (position(corner(capped, 0)) + position(corner(capped, 1))) / 2);
+
+    const LoadedMesh loaded = mesh_from_soup(soup);
+    EXPECT_EQ(loaded.report.collapsed_edges, 10u);
+    EXPECT_EQ(loaded.report.flipped_edges, 1u);
+    const kernels::Topology topology = kernels::compute_topology(*loaded.mesh);
+    EXPECT_EQ(topology.genus, 2);
+    EXPECT_EQ(topology.boundary_loops, 0);
+    const SegmentationResult r = segment(*loaded.mesh);
+    EXPECT_EQ(r.zeros.total_order, 2);
+    EXPECT_EQ(r.zeros.artifact_clusters, 0);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_LT(rectangle_error(r), 1e-9);
 }
 
 TEST(Segmentation, MidpointSubdivisionKeepsZerosAndPatches) {

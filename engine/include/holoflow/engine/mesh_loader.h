@@ -15,10 +15,16 @@ enum class ComponentPolicy { All, Largest };
 //! point): one vertex per fan, at the same position, or a non_manifold_vertex refusal.
 enum class PinchedVertexPolicy { Split, Refuse };
 
+//! A triangle whose corners are collinear or coincide: repaired where an edge collapse (two
+//! corners at one place) or an edge flip (a corner on the opposite edge) removes it without
+//! changing the surface's topology, or a zero_area_face refusal.
+enum class ZeroAreaPolicy { Repair, Refuse };
+
 struct LoadOptions {
     ComponentPolicy components = ComponentPolicy::All;
     std::size_t max_faces = 0;  //!< 0: no limit beyond 32-bit indices
     PinchedVertexPolicy pinched_vertices = PinchedVertexPolicy::Split;
+    ZeroAreaPolicy zero_area_faces = ZeroAreaPolicy::Repair;
 };
 
 //! What the loader changed on the way from file to MeshView (all counts; 0 when untouched).
@@ -31,6 +37,8 @@ struct LoadReport {
     std::size_t unreferenced_vertices = 0;  //!< dropped
     std::size_t welded_vertices = 0;        //!< STL corners merged by position
     std::size_t split_vertices = 0;         //!< vertices added by splitting pinched vertices into fans
+    std::size_t collapsed_edges = 0;        //!< zero-area repair: edges whose two ends coincide, merged
+    std::size_t flipped_edges = 0;          //!< zero-area repair: edges with a corner on them, flipped
     std::size_t components = 0;             //!< in the file
     std::size_t dropped_components = 0;     //!< with ComponentPolicy::Largest
     std::size_t dropped_faces = 0;          //!< faces of the dropped components
