@@ -229,6 +229,19 @@ TEST(MeshLoader, ZeroAreaTrianglesAreRepairedUnlessRefused) {
     }
 }
 
+// libcgal-demo's degtri_sliding: a disk of 8 triangles, 7 of them flat along one line (corners
+// inside opposite edges). Flips make a disk of 8 proper triangles of it.
+TEST(MeshLoader, CgalDegenerateSlidingMeshIsRepaired) {
+    const LoadedMesh m = load_mesh(test::corpus("degtri_sliding.off"));
+    EXPECT_EQ(m.report.flipped_edges, 7u);
+    EXPECT_EQ(m.report.collapsed_edges, 0u);
+    const kernels::Topology t = kernels::compute_topology(*m.mesh);
+    EXPECT_EQ(t.faces, 8);
+    EXPECT_EQ(t.boundary_loops, 1);
+    EXPECT_EQ(t.euler_characteristic, 1);
+    EXPECT_GT(smallest_relative_area(*m.mesh), 1e-3);
+}
+
 // A vertex whose faces form several fans gets one vertex per fan at its position: the fan with
 // the smallest corner keeps the id, the others get new ones after the file's vertices.
 TEST(MeshLoader, PinchedVerticesAreSplitIntoFans) {
