@@ -116,7 +116,7 @@ void triangulate(const PolygonSoup& soup, const std::int64_t* corner, std::size_
 }
 
 // For every halfedge, the other halfedge on the same vertex pair (or -1 on the boundary).
-// Zero-area triangles removed by local edits that keep the surface's topology, in rounds (an
+// Zero-area triangles (and flat caps) removed by local edits that keep the surface's topology, in rounds (an
 // edit's neighbours wait for the next round, whose adjacency is fresh):
 // - two corners at one place (the shortest edge under 1e-9 of the longest): that edge collapses
 //   into its smaller vertex, where the two ends share no neighbour but the triangles' third
@@ -126,14 +126,28 @@ void triangulate(const PolygonSoup& soup, const std::int64_t* corner, std::size_
 // Triangles whose edits are not allowed stay (and are refused after).
 constexpr double kCoincidentRelative = 1e-9;
 constexpr int kZeroAreaRounds = 16;
+// A cap's two short edges exceed its long one by little: under kFlatCapSlack of it the repair
+// flips it like a zero-area triangle where it can; under kLostCapSlack its area is lost to the
+// rounding of its edge lengths (Heron's formula, as intrinsic Delaunay computes it, gives 0 or
+// less), and what is left of those is refused like a zero-area triangle.
+constexpr double kFlatCapSlack = 1e-12;
+constexpr double kLostCapSlack = 64 * std::numeric_limits<double>::epsilon();
+
+// The two short edges' excess over the long one, relative to it.
+double cap_slack(const Vec3& a, const Vec3& b, const Vec3& c) {
+    std::array<double, 3> l{(b - a).norm(), (c - b).norm(), (a - c).norm()};
+    std::sort(l.begin(), l.end());
+    return l[2] > 0 ? (l[0] + l[1] - l[2]) / l[2] : 0;
+}
 
 void repair_zero_area(const PolygonSoup& soup, std::vector<std::array<std::int64_t, 3>>& triangles, LoadReport& report) {
     const auto n_v = static_cast<std::int64_t>(soup.n_vertices());
     for (int round = 0; round < kZeroAreaRounds; ++round) {
         std::vector<std::size_t> flat;
-        for (std::size_t t = 0; t < triangles.size(); ++t)
-            if (zero_area(point(soup, triangles[t][0]), point(soup, triangles[t][1]), point(soup, triangles[t][2])))
-                flat.push_back(t);
+        for (std::size_t t = 0; t < triangles.size(); ++t) {
+            const Vec3 a = point(soup, triangles[t][0]), b = point(soup, triangles[t][1]), c = point(soup, triangles[t][2]);
+            if (zero_area(a, b, c) || cap_slack(a, b, c) <= kFlatCapSlack) flat.push_back(t);
+        }
         if (flat.empty()) return;
         // Triangles around each vertex.
         std::vector<std::size_t> start(static_cast<std::size_t>(n_v) + 1, 0), around(3 * triangles.size());
@@ -431,11 +445,12 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
     for (std::size_t t = 0; t < triangles.size(); ++t) {
         const Vec3 a = point(soup, triangles[t][0]), b = point(soup, triangles[t][1]),
                    c = point(soup, triangles[t][2]);
-        if (zero_area(a, b, c))
+        const bool zero = zero_area(a, b, c);
+        if (zero || cap_slack(a, b, c) <= kLostCapSlack)
             fail(MeshErrorKind::ZeroAreaFace,
                  "triangle " + std::to_string(t) + " (vertices " + std::to_string(triangles[t][0]) +
-                     ", " + std::to_string(triangles[t][1]) + ", " +
-                     std::to_string(triangles[t][2]) + ") has zero area" +
+                     ", " + std::to_string(triangles[t][1]) + ", " + std::to_string(triangles[t][2]) +
+                     (zero ? ") has zero area" : ") is so flat that its edge lengths lose its area to rounding") +
                      (repair ? " (no edge collapse or flip removes it without changing the topology)" : ""));
     }
 

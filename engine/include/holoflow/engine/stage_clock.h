@@ -15,10 +15,10 @@ using StageTimes = std::vector<std::pair<std::string, double>>;
 
 //! Adds each stage of `more` to the entry of that name in `times`, appended where there is none.
 inline void add_stage_times(StageTimes& times, const StageTimes& more) {
-    for (const auto& [stage, ms] : more) {
-        const auto it = std::find_if(times.begin(), times.end(), [&](const auto& entry) { return entry.first == stage; });
-        if (it == times.end()) times.emplace_back(stage, ms);
-        else it->second += ms;
+    for (const auto& entry : more) {  // no structured binding: clang 14 (the fuzz build) cannot capture one
+        const auto it = std::find_if(times.begin(), times.end(), [&](const auto& e) { return e.first == entry.first; });
+        if (it == times.end()) times.push_back(entry);
+        else it->second += entry.second;
     }
 }
 
