@@ -194,9 +194,9 @@ void repair_zero_area(const PolygonSoup& soup, std::vector<std::array<std::int64
                 if (q < p) std::swap(p, q);
                 const auto ring_p = neighbours(p), ring_q = neighbours(q);
                 std::vector<std::int64_t> common, opposite;
-                for (const auto& [w, c] : ring_p)
-                    if (std::any_of(ring_q.begin(), ring_q.end(), [&](const auto& n) { return n.first == w; }))
-                        common.push_back(w);
+                for (const auto& n : ring_p)
+                    if (std::any_of(ring_q.begin(), ring_q.end(), [&](const auto& o) { return o.first == n.first; }))
+                        common.push_back(n.first);
                 for (std::size_t u : star(p))
                     if (contains(u, q))
                         for (std::int64_t w : triangles[u])
