@@ -72,7 +72,7 @@ MeshView subdivide_midpoint(const MeshView& mesh) {
     return split_faces(mesh, std::move(V));
 }
 
-MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone) {
+MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone, Index max_faces) {
     HOLOFLOW_REQUIRE(max_length > 0, "bisection needs a positive edge length");
     HOLOFLOW_REQUIRE(zone.empty() || static_cast<Index>(zone.size()) == mesh.n_vertices(),
                      "bisection zone must have one flag per vertex");
@@ -116,7 +116,7 @@ MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<co
         push(3 * g + 1);
         return 3 * g;
     };
-    while (!queue.empty()) {
+    while (!queue.empty() && (max_faces == 0 || static_cast<Index>(F.size()) <= max_faces)) {
         const auto [length, lo, hi, h] = queue.top();
         queue.pop();
         if (std::min(tail(h), head(h)) != lo || std::max(tail(h), head(h)) != hi) continue;

@@ -161,6 +161,16 @@ TEST(BisectLongEdges, KeepsHalfTheSmallestAngle) {
     }
 }
 
+// A length far below the edges' would refine the whole surface down to it (an icosphere to
+// 1e-6: about 1e13 faces); with a face limit the bisection stops just past it, a valid mesh.
+TEST(BisectLongEdges, StopsPastTheFaceLimit) {
+    const MeshView m = shapes::icosphere(1);
+    const MeshView s = bisect_long_edges(m, 1e-6, {}, 5000);
+    EXPECT_GT(s.n_faces(), 5000);
+    EXPECT_LE(s.n_faces(), 5002);  // the last split adds two faces
+    EXPECT_EQ(make_mesh_view(s.V, s.F).twin, s.twin);
+}
+
 TEST(BisectLongEdges, LeavesShortEdgesAloneAndRejectsNonPositiveLengths) {
     const MeshView m = shapes::icosphere(1);
     const MeshView s = bisect_long_edges(m, 10.0);

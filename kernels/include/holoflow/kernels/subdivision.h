@@ -26,9 +26,12 @@ MeshView subdivide_midpoint(const MeshView& mesh);
 //!
 //! Layout: vertex v < #V is input vertex v, new vertices follow in split order; face f < #F
 //! lies inside input face f, new faces follow. Genus, boundary loops and orientation are
-//! unchanged. Deterministic.
+//! unchanged. Deterministic. With `max_faces` > 0 it stops once the mesh has more faces than
+//! that (a zone of tiny edges beside a long one would otherwise be refined down to their length
+//! across its whole area); the caller tells by the face count.
 //! \throw InvalidInput if max_length is not positive or zone is neither empty nor #V long.
-MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone = {});
+MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone = {},
+                           Index max_faces = 0);
 
 //! \brief Lawson's flips where they keep the geometry: an interior edge whose two triangles lie
 //! in one plane (the far corner within `flatness` times the longest side of it) and form a
