@@ -205,7 +205,7 @@ void repair_zero_area(const PolygonSoup& soup, std::vector<std::array<std::int64
                 const bool inner_edge = opposite.size() == 2;
                 if (common != opposite || (inner_edge && on_boundary(ring_p) && on_boundary(ring_q))) continue;
                 for (std::size_t u : star(q)) {
-                    if (contains(u, p)) dead[u] = 1;
+                    if (contains(u, p)) dead[u] = 1, ++report.collapsed_faces;
                     else std::replace(triangles[u].begin(), triangles[u].end(), q, p);
                 }
                 for (const auto& ring : {ring_p, ring_q})

@@ -216,6 +216,7 @@ TEST(MeshLoader, ZeroAreaTrianglesAreRepairedUnlessRefused) {
         const LoadedMesh m = mesh_from_soup(soup);
         EXPECT_EQ(m.report.collapsed_edges, collapsed);
         EXPECT_EQ(m.report.flipped_edges, flipped);
+        EXPECT_EQ(m.report.collapsed_faces, 2 * collapsed);
         EXPECT_EQ(m.report.unreferenced_vertices, 0u);
         const kernels::Topology t = kernels::compute_topology(*m.mesh);
         EXPECT_EQ(t.vertices, vertices);

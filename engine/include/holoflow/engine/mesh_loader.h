@@ -38,6 +38,7 @@ struct LoadReport {
     std::size_t welded_vertices = 0;        //!< STL corners merged by position
     std::size_t split_vertices = 0;         //!< vertices added by splitting pinched vertices into fans
     std::size_t collapsed_edges = 0;        //!< zero-area repair: edges whose two ends coincide, merged
+    std::size_t collapsed_faces = 0;        //!< the faces on those edges, gone with them
     std::size_t flipped_edges = 0;          //!< zero-area repair: edges with a corner on them, flipped
     std::size_t components = 0;             //!< in the file
     std::size_t dropped_components = 0;     //!< with ComponentPolicy::Largest
