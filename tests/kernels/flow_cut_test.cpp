@@ -32,6 +32,19 @@ struct Square {
     }
 };
 
+// The cut mesh's triangles are counter-clockwise, not degenerate, and cover the unit square.
+void expect_tiles_the_square(const CutMesh& cut) {
+    double area = 0;
+    for (Index f = 0; f < cut.mesh.n_faces(); ++f) {
+        const Eigen::RowVector3d a = cut.mesh.V.row(cut.mesh.F(f, 0)), b = cut.mesh.V.row(cut.mesh.F(f, 1)),
+                                 c = cut.mesh.V.row(cut.mesh.F(f, 2));
+        const double z = (b - a).cross(c - a)(2) / 2;
+        EXPECT_GT(z, kAreaTol);
+        area += z;
+    }
+    EXPECT_NEAR(area, 1.0, kAreaTol);
+}
+
 // In face A B C: T0 runs from A to M, the middle of BC; T1 leaves C and stops on T0 at P; T2
 // comes from D across AC at X and stops on T1 at Q, later than T1 stopped. Q exists only once
 // T1 is cut in, although T1 stopped first: the cutter must still place all three.
@@ -73,15 +86,7 @@ TEST(FlowCut, CurveStoppedOnACurveThatStoppedEarlierIsPlaced) {
     const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, ts);
     EXPECT_EQ(cut.skipped_segments, 0);
     EXPECT_EQ(cut.mesh.n_vertices(), 8);  // A B C D, M, X, P and Q
-    double area = 0;
-    for (Index f = 0; f < cut.mesh.n_faces(); ++f) {
-        const Eigen::RowVector3d a = cut.mesh.V.row(cut.mesh.F(f, 0)), b = cut.mesh.V.row(cut.mesh.F(f, 1)),
-                                 c = cut.mesh.V.row(cut.mesh.F(f, 2));
-        const double z = (b - a).cross(c - a)(2) / 2;
-        EXPECT_GT(z, kAreaTol);  // every piece counter-clockwise and not degenerate
-        area += z;
-    }
-    EXPECT_NEAR(area, 1.0, kAreaTol);
+    expect_tiles_the_square(cut);
     // Each curve is a border: T0 in two pieces (A-P, P-M), T1 in two (C-Q, Q-P), T2 in two
     // (D-X, X-Q).
     std::array<int, 3> edges{};
@@ -103,15 +108,7 @@ TEST(FlowCut, CurveThatCannotBePlacedIsSkippedAndItsPointDropped) {
     EXPECT_EQ(cut.mesh.n_vertices(), 7);  // Q goes
     ASSERT_EQ(static_cast<Index>(cut.original_vertex.size()), cut.mesh.n_vertices());
     for (Index v = 0; v < 4; ++v) EXPECT_EQ(cut.original_vertex[v], v);
-    double area = 0;
-    for (Index f = 0; f < cut.mesh.n_faces(); ++f) {
-        const Eigen::RowVector3d a = cut.mesh.V.row(cut.mesh.F(f, 0)), b = cut.mesh.V.row(cut.mesh.F(f, 1)),
-                                 c = cut.mesh.V.row(cut.mesh.F(f, 2));
-        const double z = (b - a).cross(c - a)(2) / 2;
-        EXPECT_GT(z, kAreaTol);
-        area += z;
-    }
-    EXPECT_NEAR(area, 1.0, kAreaTol);
+    expect_tiles_the_square(cut);
 }
 
 // A pinwheel in face A B C: T0 from A stops on T1, T1 from B on T2, T2 from C on T3, and T3,
@@ -142,15 +139,7 @@ TEST(FlowCut, PinwheelOfCurvesStoppingOnEachOtherIsPlaced) {
     const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, ts);
     EXPECT_EQ(cut.skipped_segments, 0);
     EXPECT_EQ(cut.mesh.n_vertices(), 9);  // A B C D, X and the four stops
-    double area = 0;
-    for (Index f = 0; f < cut.mesh.n_faces(); ++f) {
-        const Eigen::RowVector3d a = cut.mesh.V.row(cut.mesh.F(f, 0)), b = cut.mesh.V.row(cut.mesh.F(f, 1)),
-                                 c = cut.mesh.V.row(cut.mesh.F(f, 2));
-        const double z = (b - a).cross(c - a)(2) / 2;
-        EXPECT_GT(z, kAreaTol);
-        area += z;
-    }
-    EXPECT_NEAR(area, 1.0, kAreaTol);
+    expect_tiles_the_square(cut);
     // Each curve is a border up to its stop, in pieces split where the one before it stops on it:
     // T3 also has its piece D-X in A C D.
     std::array<int, 4> edges{};
