@@ -199,10 +199,10 @@ TEST(BatchCommand, KilledRunResumesToTheSameSummary) {
 // is computed again alone, so the batch writes what `segment` writes with the same limit.
 TEST(BatchCommand, ModelsOverTheirMemoryShareAreComputedAgainAlone) {
     const TempDir dir;
-    const std::string turbine = corpus("turbine.off");  // 3 fans fail until a refinement
+    const std::string anchor = corpus("anchor.off");  // 3 fans fail until its midpoint refinement
     const auto segment = [&](std::size_t mib, const std::string& name) {
         const fs::path out = dir.path() / name;
-        const test::CommandResult r = run_cli("segment '" + turbine + "' -o '" + out.string() + "' --json --max-memory " +
+        const test::CommandResult r = run_cli("segment '" + anchor + "' -o '" + out.string() + "' --json --max-memory " +
                                               std::to_string(mib));
         return std::pair{r, r.status == 0 ? nlohmann::json::parse(r.out) : nlohmann::json()};
     };
@@ -226,8 +226,8 @@ TEST(BatchCommand, ModelsOverTheirMemoryShareAreComputedAgainAlone) {
     }
     const fs::path inputs = dir.path() / "in";
     fs::create_directories(inputs);
-    fs::create_symlink(turbine, inputs / "a.off");
-    fs::create_symlink(turbine, inputs / "b.off");
+    fs::create_symlink(anchor, inputs / "a.off");
+    fs::create_symlink(anchor, inputs / "b.off");
     for (const char* threads : {"2", "1"}) {
         const fs::path out = dir.path() / (std::string("batch") + threads);
         const test::CommandResult r = run_cli("batch '" + inputs.string() + "' -o '" + out.string() + "' --threads " +
