@@ -944,6 +944,10 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
     const std::array<Complex, 4> axes{Complex(1, 0), Complex(0, 1), Complex(-1, 0), Complex(0, -1)};
     // uv from corner h to corner `to` of the same face
     const auto uv_from = [&](Index h, Index to) { return patches.corner_uv[to] - patches.corner_uv[h]; };
+    const auto corner_angle = [&](Index h) {  // the uv angle of face(h) at the tail of h
+        const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
+        return std::atan2(cross(e1, e2), (e1 * std::conj(e2)).real());
+    };
     std::vector<Index> sector;
     // Each border halfedge out of a vertex starts one sector of its patch there: the faces
     // from it around the vertex, inside the patch, to the next border edge. Where the border
@@ -961,8 +965,7 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
         sector.clear();
         double angle = 0;
         for (Index h = h0; h != kNoHalfedge && static_cast<Index>(sector.size()) < cm.n_faces();) {
-            const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
-            angle += std::atan2(cross(e1, e2), (e1 * std::conj(e2)).real());
+            angle += corner_angle(h);
             sector.push_back(h);
             if (on_border(cm, border, MeshView::prev(h))) break;
             h = cm.rotate(h);
@@ -993,8 +996,7 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
         const PatchInfo& info = patches.info[patches.face_patch[MeshView::face(h)]];
         if (on_border(cm, border, h)) inner[cm.tail(h)] = inner[cm.head(h)] = 0;
         if (info.type != PatchInfo::Type::Disk || info.flipped_uv_triangles > 0) continue;
-        const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
-        turn[cm.tail(h)] += std::atan2(cross(e1, e2), (e1 * std::conj(e2)).real());
+        turn[cm.tail(h)] += corner_angle(h);
     }
     std::vector<Index> branch(patches.info.size(), -1);
     for (Index h = 0; h < cm.n_halfedges(); ++h) {
