@@ -294,8 +294,9 @@ int run_batch(const BatchArgs& args) {
         todo_index.push_back(i);
     }
 
-    // Models computed side by side share the memory limit. One that hits its share is computed
-    // again alone with the whole limit, as `segment` would: results never depend on --threads.
+    // Models computed side by side share the memory limit. One that hits its share stops there
+    // and is computed again alone with the whole limit, as `segment` would: results never
+    // depend on --threads.
     const std::size_t in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * threads;
     const std::size_t concurrent = std::max<std::size_t>(1, std::min({std::size_t{threads}, in_flight, todo.size()}));
     graphs::SegmentationGraphOptions options = args.settings.graph_options(concurrent);
@@ -305,6 +306,7 @@ int run_batch(const BatchArgs& args) {
     alone.max_in_flight = 1;
     alone.timeout = options.timeout;
     const bool shared = options.segment.conformal.max_solver_bytes != alone.segment.conformal.max_solver_bytes;
+    options.segment.stop_at_memory_limit = shared;
     engine::FactorizationCache cache;
     const graphs::SegmentationGraph graph(options, &cache);
     if (!args.dot.empty())

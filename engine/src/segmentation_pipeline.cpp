@@ -346,6 +346,7 @@ std::optional<SegmentationWork> on_refined_surface(MeshView surface, const Segme
         return std::nullopt;
     } catch (const ResourceLimit&) {
         ++over_memory_limit;
+        if (options.stop_at_memory_limit) throw;
         return std::nullopt;
     }
     return refined;

@@ -389,6 +389,9 @@ TEST(Segmentation, FanRefinementOverTheMemoryLimitIsSkipped) {
     EXPECT_GT(r.regular.failed_regions, 0);
     EXPECT_EQ(r.traced_input->n_faces(), turbine->n_faces());
     EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+    // A batch that recomputes such models alone stops them at the first skipped try.
+    o.stop_at_memory_limit = true;
+    EXPECT_THROW(segment(*turbine, o), ResourceLimit);
 }
 
 // A genus-0 surface sliced at two tips is an annulus that no critical trajectory crosses (no

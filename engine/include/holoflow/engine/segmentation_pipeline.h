@@ -44,6 +44,10 @@ struct SegmentOptions {
     //! (not a component's longest loop, see kernels::fillable_holes) are filled and the surface
     //! solved again, kept where fewer fans fail (never on tip-sliced surfaces).
     bool fill_holes_at_failed_fans = true;
+    //! A refinement try over ConformalOptions::max_solver_bytes fails the model (ResourceLimit)
+    //! instead of being skipped: for a batch that computes such a model again with more memory,
+    //! so that the rest of a result it would throw away is not computed.
+    bool stop_at_memory_limit = false;
 };
 
 //! Everything the segmentation computes for one mesh (DESIGN 2.5-2.7).
