@@ -1172,6 +1172,9 @@ PolygonSoup read_polygon_soup(const std::string& path) {
     if (ec) fail(Kind::Unreadable, "'", path, "': ", ec.message());
     if (status.type() == fs::file_type::directory)
         fail(Kind::Unreadable, "'", path, "' is a directory, not a file");
+    // A FIFO would block the read until a writer comes, and a device such as /dev/zero never ends.
+    if (status.type() != fs::file_type::regular)
+        fail(Kind::Unreadable, "'", path, "' is not a regular file (a FIFO, socket or device)");
     const MeshFormat format = format_from_path(path);
 
     std::FILE* file = std::fopen(path.c_str(), "rb");

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include "support/test_support.h"
@@ -108,12 +109,13 @@ TEST(BatchSummary, CsvHasOneRowPerModelAndQuotesErrors) {
     EXPECT_NE(row1.find("\"line 3: bad token \"\"x\"\", expected a number\""), std::string::npos) << row1;
 }
 
-// A list of real models plus broken files.
+// A list of real models plus broken files (a FIFO would block a reader until a writer comes).
 std::string write_batch_list(const TempDir& dir) {
     dir.write("broken.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 nan 0\n3 0 1 2\n");
+    EXPECT_EQ(::mkfifo((dir.path() / "fifo.off").c_str(), 0600), 0);
     std::string list;
     for (const char* m : {"eight", "knot", "head", "elephant", "bull", "femur"}) list += corpus(std::string(m) + ".off") + "\n";
-    list += "broken.off\nnot-there.off\n";
+    list += "broken.off\nnot-there.off\nfifo.off\n";
     return dir.write("models.txt", list);
 }
 
@@ -125,12 +127,13 @@ TEST(BatchCommand, BadFilesFailAloneAndThreadCountsAgree) {
     const test::CommandResult r2 = run_cli("batch '" + list + "' -o '" + two.string() + "' --threads 2");
     EXPECT_EQ(r1.status, kExitBatchFailures) << r1.err;
     EXPECT_EQ(r2.status, kExitBatchFailures) << r2.err;
-    EXPECT_NE(r1.out.find("8 models: 6 ok, 2 failed"), std::string::npos) << r1.out;
-    EXPECT_NE(r1.err.find("progress: 8/8 done, 2 failed"), std::string::npos) << r1.err;
+    EXPECT_NE(r1.out.find("9 models: 6 ok, 3 failed"), std::string::npos) << r1.out;
+    EXPECT_NE(r1.err.find("progress: 9/9 done, 3 failed"), std::string::npos) << r1.err;
     EXPECT_EQ(summary_without_timings(one), summary_without_timings(two));
     const nlohmann::json summary = summary_without_timings(one);
     EXPECT_EQ(summary[6]["error"]["kind"], "non_finite_coordinate");
     EXPECT_EQ(summary[7]["error"]["kind"], "file_not_found");
+    EXPECT_EQ(summary[8]["error"]["kind"], "unreadable");
     for (const char* m : {"eight", "knot", "head", "elephant", "bull", "femur"})
         for (const char* file : {"segments.ply", "complex.json", "patches.obj"})
             EXPECT_EQ(slurp(one / m / file), slurp(two / m / file)) << m << "/" << file;

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
+
 #include <gtest/gtest.h>
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
@@ -551,6 +553,11 @@ TEST(MeshReader, FileLevelErrors) {
     EXPECT_EQ(read_kind((dir.path() / "missing.off").string()), MeshErrorKind::FileNotFound);
     std::filesystem::create_directory(dir.path() / "folder.off");
     EXPECT_EQ(read_kind((dir.path() / "folder.off").string()), MeshErrorKind::Unreadable);
+    // Refused before reading: a FIFO blocks until a writer comes, /dev/zero never ends.
+    ASSERT_EQ(::mkfifo((dir.path() / "fifo.off").c_str(), 0600), 0);
+    EXPECT_EQ(read_kind((dir.path() / "fifo.off").string()), MeshErrorKind::Unreadable);
+    std::filesystem::create_symlink("/dev/zero", dir.path() / "zero.stl");
+    EXPECT_EQ(read_kind((dir.path() / "zero.stl").string()), MeshErrorKind::Unreadable);
     EXPECT_EQ(read_kind(dir.write("points.xyz", "0 0 0\n")), MeshErrorKind::UnknownFormat);
     EXPECT_EQ(read_kind(dir.write("empty.off", "")), MeshErrorKind::EmptyFile);
     EXPECT_EQ(read_kind(dir.write("comments.off", "# only\n# comments\n")),

@@ -10,7 +10,7 @@ namespace holoflow::engine {
 //! `error: <name>: <detail>`) and an exit status; README.md documents both.
 enum class MeshErrorKind {
     FileNotFound,        // the path does not exist
-    Unreadable,          // exists but cannot be opened or read (permissions, a directory, I/O)
+    Unreadable,          // exists but cannot be opened or read (permissions, a directory, FIFO or device, I/O)
     UnknownFormat,       // extension/magic is not OFF, OBJ, PLY or STL
     EmptyFile,           // zero bytes, or no vertices/faces at all
     Truncated,           // ends before the data the header announced
