@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <limits>
 #include <sstream>
@@ -242,8 +243,18 @@ std::int64_t off_count(LineCursor& c, const char* what) {
     return value;
 }
 
-PolygonSoup parse_off(const char* data, std::size_t size) {
+// `free_layout`: the body is read as one stream of tokens (Geomview's OFF is free-format:
+// elements may share or span lines), so nothing may follow an element on its line (colours),
+// and after the last face only blanks and comments. Otherwise each vertex and face is one line
+// and the rest of it is skipped (colours, normals, texture coordinates).
+PolygonSoup parse_off(const char* data, std::size_t size, bool free_layout) {
     LineCursor c(data, data + size, false);
+    // Moves to the next token of the element at hand: on its line, or anywhere after in free layout.
+    const auto to_next_token = [&] {
+        if (free_layout) return c.skip_to_content();
+        c.skip_blanks();
+        return !c.at_line_end();
+    };
     if (!c.skip_to_content()) fail(Kind::EmptyFile, "OFF file holds only comments and blank lines");
 
     // Header keyword [ST][C][N][4][n]OFF; files without it start directly with the counts.
@@ -292,7 +303,12 @@ PolygonSoup parse_off(const char* data, std::size_t size) {
         fail(c.p == c.end() ? Kind::Truncated : Kind::ParseError, "line ", c.line,
              ": counts line has the vertex count only, expected 'vertices faces edges'");
     const std::int64_t n_faces = off_count(c, "face");
-    c.next_line();  // the edge count and anything after it are not used
+    if (!free_layout) {
+        c.next_line();  // the edge count and anything after it are not used
+    } else {
+        c.skip_blanks();
+        if (!c.at_line_end()) off_count(c, "edge");  // optional, and only on the counts' line
+    }
 
     // Refuse impossible counts before reserving: each vertex line takes at least "0 0 0\n" and
     // each face line "3 0 1 2\n" (one byte of slack for a missing final newline).
@@ -311,8 +327,7 @@ PolygonSoup parse_off(const char* data, std::size_t size) {
         if (!c.skip_to_content())
             fail(Kind::Truncated, "file ends after ", v, " of ", n_vertices, " vertices");
         for (int k = 0; k < 3; ++k) {
-            c.skip_blanks();
-            if (c.at_line_end()) {
+            if (!to_next_token()) {
                 if (c.p == c.end())
                     fail(Kind::Truncated, "file ends inside vertex ", v, " (line ", c.line,
                          ") after ", k, " of 3 coordinates");
@@ -324,7 +339,7 @@ PolygonSoup parse_off(const char* data, std::size_t size) {
                 fail(Kind::ParseError, "line ", c.line, ": vertex ", v, " coordinate ", k,
                      ": expected a number, found ", show_token(at, c.end()));
         }
-        c.next_line();  // colours, normals, texture coordinates
+        if (!free_layout) c.next_line();  // colours, normals, texture coordinates
     }
 
     soup.offsets.resize(static_cast<std::size_t>(n_faces) + 1);
@@ -340,8 +355,7 @@ PolygonSoup parse_off(const char* data, std::size_t size) {
         if (n < 0)
             fail(Kind::ParseError, "line ", c.line, ": face ", f, " has negative corner count ", n);
         for (std::int64_t k = 0; k < n; ++k) {
-            c.skip_blanks();
-            if (c.at_line_end()) {
+            if (!to_next_token()) {
                 if (c.p == c.end())
                     fail(Kind::Truncated, "file ends inside face ", f, " (line ", c.line,
                          ") after ", k, " of ", n, " corners");
@@ -360,9 +374,26 @@ PolygonSoup parse_off(const char* data, std::size_t size) {
             soup.indices.push_back(index);
         }
         soup.offsets[static_cast<std::size_t>(f) + 1] = soup.indices.size();
-        c.next_line();  // face colour
+        if (!free_layout) c.next_line();  // face colour
     }
+    if (free_layout && c.skip_to_content())
+        fail(Kind::ParseError, "line ", c.line, ": ", show_token(c.p, c.end()), " after the last face");
     return soup;
+}
+
+// Line by line first (colours and normals after an element are skipped); where that fails, the
+// file may be free-format OFF, which is taken if it reads as exactly the announced elements.
+PolygonSoup parse_off(const char* data, std::size_t size) {
+    try {
+        return parse_off(data, size, false);
+    } catch (const MeshError&) {
+        std::exception_ptr line_error = std::current_exception();
+        try {
+            return parse_off(data, size, true);
+        } catch (const MeshError&) {
+            std::rethrow_exception(line_error);
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

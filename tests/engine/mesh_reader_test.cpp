@@ -148,6 +148,26 @@ TEST(OffReader, ColouredQuadWithCountsOnKeywordLineAndComments) {
     EXPECT_EQ(polygons_of(s), (Polygons{{0, 1, 2, 3}}));
 }
 
+// Geomview's OFF is free-format: tokens may share or span lines. Such a file is read as one
+// stream when it holds exactly the announced elements; colours after an element need the line
+// layout, and a file that fits neither keeps the line reader's error.
+TEST(OffReader, FreeLayoutIsReadAsATokenStream) {
+    for (const std::string off : {std::string("OFF\n4 4 6\n0 0 0 1 0 0 0 1 0 0 0 1\n3 0 2 1 3 0 1 3 3 0 3 2 3 1 2 3\n"),
+                                  std::string("OFF\t4 4 6\t0 0 0\t1 0 0\t0 1 0\t0 0 1\t3 0 2 1\t3 0 1 3\t3 0 3 2\t3 1 2 3"),
+                                  std::string("OFF\n4 4\n0 0\n0 1 0 0 # x y z may wrap\n0 1 0\n0 0 1\n3\n0 2 1\n"
+                                              "3 0 1 3 3 0 3 2\n3 1 2 3\n# end\n")}) {
+        SCOPED_TRACE(off);
+        const PolygonSoup s = parse_polygon_soup(off.data(), off.size(), MeshFormat::Off);
+        EXPECT_EQ(s.positions, kTetraPositions);
+        EXPECT_EQ(polygons_of(s), kTetraFaces);
+    }
+    // One token too many or too few: the line reader's errors.
+    const std::string extra = "OFF\n3 1 0\n0 0 0 1 0 0 0 1 0\n3 0 1 2 7\n";
+    const std::string missing = "OFF\n3 1 0\n# padding for the size check\n0 0 0 1 0 0 0 1\n3 0 1 2\n";
+    EXPECT_EQ(parse_kind(extra, MeshFormat::Off), MeshErrorKind::Truncated);
+    EXPECT_EQ(parse_kind(missing, MeshFormat::Off), MeshErrorKind::Truncated);
+}
+
 TEST(OffReader, PrefixedKeywordsAccepted) {
     for (const std::string keyword : {"OFF", "COFF", "NOFF", "CNOFF", "STOFF", "STCNOFF"}) {
         SCOPED_TRACE(keyword);
