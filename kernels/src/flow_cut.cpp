@@ -451,16 +451,27 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                         local.end());
             pos.resize(local.size());
             for (std::size_t q = 0; q < local.size(); ++q) pos[q] = local[q].second;
-            for (std::size_t k = 0; k < pool.n; ++k)
-                for (Index& id : pool.polys[k].points)
-                    id = static_cast<Index>(std::lower_bound(local.begin(), local.end(), id,
-                                                             [](const auto& a, Index x) { return a.first < x; }) -
-                                            local.begin());
-            tris.clear();
-            for (std::size_t k = 0; k < pool.n; ++k) triangulate(pool.polys[k], pos, work, tris);
-            for (Triangle& t : tris)
-                for (int k = 0; k < 3; ++k) t.image[k] = pos[t.v[k]], t.v[k] = local[t.v[k]].first;
-            inner_unpaired[slot] = !pair_inner_edges(tris, inner_keys);
+            const auto triangulate_pieces = [&] {
+                for (std::size_t k = 0; k < pool.n; ++k)
+                    for (Index& id : pool.polys[k].points)
+                        id = static_cast<Index>(std::lower_bound(local.begin(), local.end(), id,
+                                                                 [](const auto& a, Index x) { return a.first < x; }) -
+                                                local.begin());
+                tris.clear();
+                for (std::size_t k = 0; k < pool.n; ++k) triangulate(pool.polys[k], pos, work, tris);
+                for (Triangle& t : tris)
+                    for (int k = 0; k < 3; ++k) t.image[k] = pos[t.v[k]], t.v[k] = local[t.v[k]].first;
+                return pair_inner_edges(tris, inner_keys);
+            };
+            if (!triangulate_pieces()) {
+                // Pieces whose triangulations share a diagonal (a face folded in its chart,
+                // where the curves cross and a piece is no simple polygon): the face's curves
+                // are skipped, and only its border is triangulated.
+                skipped[slot] = static_cast<Index>(segs.size());
+                pool.polys[0] = poly;
+                pool.n = 1;
+                inner_unpaired[slot] = !triangulate_pieces();
+            }
             face_triangles[slot].assign(tris.begin(), tris.end());
         }
     });

@@ -1,6 +1,7 @@
 #include "holoflow/engine/segmentation_pipeline.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -658,6 +659,30 @@ TEST(Segmentation, RigidMotionAndScaleChangeNothing) {
 // neighbour (two zero-area triangles on that edge each), and a vertex moved to the middle of
 // its opposite edge (a flat cap). The loader's repair makes the same genus-2 surface of them,
 // which segments as the original does.
+// cheese stretched 10 times along its longest axis: in a face where the form's chart folds,
+// curves cross, and the cutter's pieces there triangulated with one diagonal twice (a curve's
+// stop lying on the chord between them). The cut mesh was refused as non-manifold ("4 faces
+// share it") and the model failed; now that face's curves are skipped (counted) and the rest
+// is segmented.
+TEST(Segmentation, CurvesCrossingInAFoldedFaceAreSkippedNotFatal) {
+    PolygonSoup soup = read_polygon_soup(test::corpus("cheese.off"));
+    std::array<double, 3> lo{}, hi{};
+    lo.fill(std::numeric_limits<double>::infinity());
+    hi.fill(-std::numeric_limits<double>::infinity());
+    for (std::size_t i = 0; i < soup.positions.size(); ++i)
+        lo[i % 3] = std::min(lo[i % 3], soup.positions[i]), hi[i % 3] = std::max(hi[i % 3], soup.positions[i]);
+    std::size_t axis = 0;
+    for (std::size_t k = 1; k < 3; ++k)
+        if (hi[k] - lo[k] > hi[axis] - lo[axis]) axis = k;
+    for (std::size_t i = axis; i < soup.positions.size(); i += 3) soup.positions[i] *= 10;
+    const LoadedMesh loaded = mesh_from_soup(soup);
+    const SegmentationResult r = segment(*loaded.mesh);
+    EXPECT_GT(r.cut.skipped_segments, 0);
+    EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+    EXPECT_EQ(r.patches.face_patch.size(), static_cast<std::size_t>(r.cut.mesh.n_faces()));
+    EXPECT_EQ(std::count(r.patches.face_patch.begin(), r.patches.face_patch.end(), -1), 0);
+}
+
 TEST(Segmentation, ZeroAreaTrianglesOfARealMeshAreRepaired) {
     PolygonSoup soup = read_polygon_soup(test::corpus("eight.off"));
     const auto corner = [&](std::size_t face, int k) { return soup.indices[soup.offsets[face] + k]; };
