@@ -18,6 +18,8 @@ batch over them.
                                                            one face removed (one large hole)
                                          MESH-split.off    10 % of the faces split at their
                                                            centroid (valence 3, obtuse slivers)
+                                         MESH-stretch10.off  the longest axis scaled by 10 (a
+                                                           rod: needle triangles everywhere)
   bench/variants.py summary RESULTS      totals of `holoflow batch OUT -o RESULTS` (see
                                          bench/README, "Unseen meshes")
 
@@ -121,6 +123,9 @@ def make(out, paths):
         diameter = math.dist(lo, hi)
         write_off(os.path.join(out, stem + '-far.off'),
                   [[1e-3 * x + 1e4 * 1e-3 * diameter for x in v] for v in vertices], faces)
+        axis = max(range(3), key=lambda i: hi[i] - lo[i])
+        write_off(os.path.join(out, stem + '-stretch10.off'),
+                  [[x * 10 if i == axis else x for i, x in enumerate(v)] for v in vertices], faces)
         write_off(os.path.join(out, stem + '-bighole.off'), vertices, without_ball(faces, rng, 0.03))
         split_vertices, split_faces = list(vertices), []
         for face in faces:

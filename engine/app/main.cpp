@@ -194,6 +194,7 @@ struct SegmentSettings {
     graphs::SegmentationGraphOptions graph_options(std::size_t concurrent) const {
         graphs::SegmentationGraphOptions o;
         o.load = load.options();
+        o.load.max_file_bytes = memory_limit_bytes();  // the whole limit, whatever the share
         o.segment.conformal.laplacian =
             laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic : engine::LaplacianKind::IntrinsicDelaunay;
         o.segment.conformal.max_solver_bytes = memory_limit_bytes() / std::max<std::size_t>(concurrent, 1);

@@ -529,7 +529,7 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
 }
 
 LoadedMesh load_mesh(const std::string& path, const LoadOptions& options) {
-    return mesh_from_soup(read_polygon_soup(path), options);
+    return mesh_from_soup(read_polygon_soup(path, options.max_file_bytes), options);
 }
 
 }  // namespace holoflow::engine

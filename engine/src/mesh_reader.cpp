@@ -1194,7 +1194,7 @@ PolygonSoup parse_polygon_soup(const char* data, std::size_t size, MeshFormat fo
     return soup;
 }
 
-PolygonSoup read_polygon_soup(const std::string& path) {
+PolygonSoup read_polygon_soup(const std::string& path, std::uint64_t max_bytes) {
     namespace fs = std::filesystem;
     std::error_code ec;
     const fs::file_status status = fs::status(path, ec);
@@ -1212,6 +1212,11 @@ PolygonSoup read_polygon_soup(const std::string& path) {
     if (!file) fail(Kind::Unreadable, "cannot open '", path, "': ", std::strerror(errno));
     std::string bytes;
     const std::uintmax_t hint = fs::file_size(path, ec);
+    if (!ec && max_bytes > 0 && hint > max_bytes) {
+        std::fclose(file);
+        fail(Kind::TooLarge, "'", path, "' has ", hint >> 20, " MiB, more than the memory limit (", max_bytes >> 20,
+             " MiB) holds");
+    }
     if (!ec && hint > 0) bytes.reserve(static_cast<std::size_t>(hint));
     char chunk[1 << 16];
     for (;;) {

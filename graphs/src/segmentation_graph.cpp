@@ -82,7 +82,7 @@ struct Stages {
     void read(ModelState& s) const {
         if (options.timeout.count() > 0) s.deadline = Clock::now() + options.timeout;
         StageClock clock(s.run.outcome.timings_ms);
-        s.soup = engine::read_polygon_soup(s.task().path);
+        s.soup = engine::read_polygon_soup(s.task().path, options.load.max_file_bytes);
         clock.lap("load");
     }
     void validate(ModelState& s) const {

@@ -309,6 +309,11 @@ TEST(Cli, MaxMemoryRefusesAModelOverIt) {
     EXPECT_NE(refused.err.find("error: resource_limit: "), std::string::npos) << refused.err;
     EXPECT_NE(refused.err.find("266 forms"), std::string::npos) << refused.err;
     EXPECT_FALSE(std::filesystem::exists(dir.path() / "a" / "segmentation.json"));
+    // A file larger than the limit is refused before it is read.
+    const std::string padded = dir.write("padded.off", test::slurp(mesh) + "#" + std::string(2 << 20, 'x') + "\n");
+    const auto big = test::run_cli("segment '" + padded + "' -o '" + (dir.path() / "c").string() + "' --max-memory 1");
+    EXPECT_EQ(big.status, engine::exit_status(MeshErrorKind::TooLarge)) << big.err;
+    EXPECT_NE(big.err.find("more than the memory limit (1 MiB)"), std::string::npos) << big.err;
     for (const char* limit : {" --max-memory 0", ""}) {
         const auto r = test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "b").string() + "'" + limit);
         EXPECT_EQ(r.status, 0) << limit << ": " << r.err;

@@ -583,6 +583,17 @@ TEST(MeshReader, FileLevelErrors) {
     EXPECT_EQ(read_kind(dir.write("comments.off", "# only\n# comments\n")),
               MeshErrorKind::EmptyFile);
     EXPECT_EQ(read_kind(dir.write("zero.off", "OFF\n0 0 0\n")), MeshErrorKind::EmptyFile);
+    // Over the memory limit: refused unread.
+    const std::string tetra = dir.write("tetra.off", "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                                                     "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+    EXPECT_EQ(read_polygon_soup(tetra, std::filesystem::file_size(tetra)).n_polygons(), 4u);
+    try {
+        read_polygon_soup(tetra, std::filesystem::file_size(tetra) - 1);
+        ADD_FAILURE() << "expected too_large";
+    } catch (const MeshError& e) {
+        EXPECT_EQ(e.kind, MeshErrorKind::TooLarge);
+        EXPECT_NE(e.detail.find("memory limit"), std::string::npos) << e.detail;
+    }
 }
 
 // Hostile bytes: every prefix and random byte flips of a valid file of each format must either

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -23,6 +24,7 @@ enum class ZeroAreaPolicy { Repair, Refuse };
 struct LoadOptions {
     ComponentPolicy components = ComponentPolicy::All;
     std::size_t max_faces = 0;  //!< 0: no limit beyond 32-bit indices
+    std::uint64_t max_file_bytes = 0;  //!< a larger file is refused unread (the memory limit; 0: none)
     PinchedVertexPolicy pinched_vertices = PinchedVertexPolicy::Split;
     ZeroAreaPolicy zero_area_faces = ZeroAreaPolicy::Repair;
 };
