@@ -98,6 +98,11 @@ double out_of_range_value(const char* b, const char* e) {
     return negative ? -magnitude : magnitude;
 }
 
+// 3 if the bytes start with the UTF-8 byte order mark, else 0.
+std::size_t utf8_bom_size(const char* data, std::size_t size) {
+    return size >= 3 && std::memcmp(data, "\xEF\xBB\xBF", 3) == 0 ? 3 : 0;
+}
+
 // An optional '+' is not accepted by from_chars; skip it when a number follows.
 inline const char* skip_plus(const char* p, const char* end) {
     if (p + 1 < end && *p == '+' &&
@@ -1132,12 +1137,13 @@ PolygonSoup parse_stl(const char* data, std::size_t size) {
     if (size < 84 || expected != size) {
         // Not binary by size; ascii if it says "solid" and holds no NUL byte (binary STL almost
         // always has zero attribute bytes, and a binary header may also start with "solid").
-        const char* p = data;
+        const std::size_t bom = utf8_bom_size(data, size);
+        const char* p = data + bom;
         while (p < data + size && is_space(*p)) ++p;
         const bool solid = data + size - p >= 5 && equal_nocase(std::string_view(p, 5), "solid");
         const bool nul = std::memchr(data, 0, size) != nullptr;
         if (solid && !nul) {
-            corners = parse_stl_ascii(data, size);
+            corners = parse_stl_ascii(data + bom, size - bom);
         } else if (size < 84) {
             fail(Kind::Truncated, "binary STL needs an 84-byte header, file has ", size, " bytes");
         } else if (expected > size) {
@@ -1182,11 +1188,14 @@ MeshFormat format_from_path(const std::string& path) {
 
 PolygonSoup parse_polygon_soup(const char* data, std::size_t size, MeshFormat format) {
     if (size == 0) fail(Kind::EmptyFile, "0 bytes");
+    // Text written by Windows tools may start with a UTF-8 byte order mark (binary STL's header
+    // is any 80 bytes: parse_stl skips one only before an ascii "solid").
+    const std::size_t bom = format == MeshFormat::Stl ? 0 : utf8_bom_size(data, size);
     PolygonSoup soup;
     switch (format) {
-        case MeshFormat::Off: soup = parse_off(data, size); break;
-        case MeshFormat::Obj: soup = parse_obj(data, size); break;
-        case MeshFormat::Ply: soup = parse_ply(data, size); break;
+        case MeshFormat::Off: soup = parse_off(data + bom, size - bom); break;
+        case MeshFormat::Obj: soup = parse_obj(data + bom, size - bom); break;
+        case MeshFormat::Ply: soup = parse_ply(data + bom, size - bom); break;
         case MeshFormat::Stl: soup = parse_stl(data, size); break;
     }
     if (soup.n_vertices() == 0 && soup.n_polygons() == 0)

@@ -568,6 +568,19 @@ TEST(StlReader, Errors) {
 // ---------------------------------------------------------------------------------------------
 // File-level errors
 
+// Text written by Windows tools may start with a UTF-8 byte order mark.
+TEST(MeshReader, TextAfterAUtf8ByteOrderMarkIsRead) {
+    const std::string bom = "\xEF\xBB\xBF";
+    const std::string off = "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+    const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    const std::string ply = bom + kPlyTetraAscii, stl = bom + ascii_stl_tetra();
+    EXPECT_EQ(polygons_of(parse_polygon_soup((bom + off).data(), bom.size() + off.size(), MeshFormat::Off)), kTetraFaces);
+    EXPECT_EQ(polygons_of(parse_polygon_soup((bom + obj).data(), bom.size() + obj.size(), MeshFormat::Obj)), kTetraFaces);
+    EXPECT_EQ(parse_polygon_soup(ply.data(), ply.size(), MeshFormat::Ply).n_polygons(), 4u);
+    EXPECT_EQ(parse_polygon_soup(stl.data(), stl.size(), MeshFormat::Stl).n_polygons(), 4u);
+    EXPECT_EQ(parse_kind(bom, MeshFormat::Off), MeshErrorKind::EmptyFile);
+}
+
 TEST(MeshReader, FileLevelErrors) {
     const test::TempDir dir;
     EXPECT_EQ(read_kind((dir.path() / "missing.off").string()), MeshErrorKind::FileNotFound);
