@@ -1191,6 +1191,14 @@ PolygonSoup parse_polygon_soup(const char* data, std::size_t size, MeshFormat fo
     // Text written by Windows tools may start with a UTF-8 byte order mark (binary STL's header
     // is any 80 bytes: parse_stl skips one only before an ascii "solid").
     const std::size_t bom = format == MeshFormat::Stl ? 0 : utf8_bom_size(data, size);
+    // Classic Mac OS text ends its lines with '\r' alone: OFF and OBJ are read line by line.
+    std::string lines;
+    if ((format == MeshFormat::Off || format == MeshFormat::Obj) && !std::memchr(data, '\n', size) &&
+        std::memchr(data, '\r', size)) {
+        lines.assign(data, size);
+        std::replace(lines.begin(), lines.end(), '\r', '\n');
+        data = lines.data();
+    }
     PolygonSoup soup;
     switch (format) {
         case MeshFormat::Off: soup = parse_off(data + bom, size - bom); break;

@@ -568,8 +568,9 @@ TEST(StlReader, Errors) {
 // ---------------------------------------------------------------------------------------------
 // File-level errors
 
-// Text written by Windows tools may start with a UTF-8 byte order mark.
-TEST(MeshReader, TextAfterAUtf8ByteOrderMarkIsRead) {
+// Text written by Windows tools may start with a UTF-8 byte order mark; old Mac OS ones end
+// lines with '\r' alone.
+TEST(MeshReader, ByteOrderMarkAndOldMacLineEndsAreRead) {
     const std::string bom = "\xEF\xBB\xBF";
     const std::string off = "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
     const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
@@ -579,6 +580,10 @@ TEST(MeshReader, TextAfterAUtf8ByteOrderMarkIsRead) {
     EXPECT_EQ(parse_polygon_soup(ply.data(), ply.size(), MeshFormat::Ply).n_polygons(), 4u);
     EXPECT_EQ(parse_polygon_soup(stl.data(), stl.size(), MeshFormat::Stl).n_polygons(), 4u);
     EXPECT_EQ(parse_kind(bom, MeshFormat::Off), MeshErrorKind::EmptyFile);
+    // Classic Mac OS line ends ('\r' alone).
+    std::string mac = obj;
+    std::replace(mac.begin(), mac.end(), '\n', '\r');
+    EXPECT_EQ(polygons_of(parse_polygon_soup(mac.data(), mac.size(), MeshFormat::Obj)), kTetraFaces);
 }
 
 TEST(MeshReader, FileLevelErrors) {
