@@ -8,13 +8,11 @@
 #include <functional>
 #include <iostream>
 #include <new>
-#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include "holoflow/engine/conformal_pipeline.h"
@@ -24,6 +22,7 @@
 #include "holoflow/engine/segmentation_output.h"
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/engine/status.h"
+#include "holoflow/graphs/collection.h"
 #include "holoflow/graphs/segmentation_graph.h"
 #include "holoflow/kernels/topology.h"
 
@@ -190,14 +189,14 @@ struct SegmentSettings {
     std::size_t memory_limit_bytes() const {
         return max_memory != nullptr && max_memory->count() == 0 ? available_memory_bytes() / 4 * 3 : max_memory_mb << 20;
     }
-    //! `concurrent`: models computed at once (each gets its share of the memory limit).
-    graphs::SegmentationGraphOptions graph_options(std::size_t concurrent) const {
+    //! With the whole memory limit (a batch splits it between the models computed at once).
+    graphs::SegmentationGraphOptions graph_options() const {
         graphs::SegmentationGraphOptions o;
         o.load = load.options();
         o.load.max_file_bytes = memory_limit_bytes();  // the whole limit, whatever the share
         o.segment.conformal.laplacian =
             laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic : engine::LaplacianKind::IntrinsicDelaunay;
-        o.segment.conformal.max_solver_bytes = memory_limit_bytes() / std::max<std::size_t>(concurrent, 1);
+        o.segment.conformal.max_solver_bytes = memory_limit_bytes();
         o.segment.mode = mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
         o.segment.max_tips = max_tips;
         o.segment.hole_size = hole_size;
@@ -229,7 +228,7 @@ struct SegmentArgs {
 int run_segment(const SegmentArgs& args) {
     const std::filesystem::path folder(args.out_dir);
     engine::prepare_output_folder(folder);  // fail before the work, not after
-    graphs::SegmentationGraphOptions options = args.settings.graph_options(1);
+    graphs::SegmentationGraphOptions options = args.settings.graph_options();
     options.segment.tips = args.tips;
     options.max_in_flight = 1;
     engine::ModelTask task;
@@ -264,106 +263,33 @@ struct BatchArgs {
     bool force = false, serial = false;
 };
 
-// Whether a model hit the memory limit: refused, or a refinement try skipped.
-bool over_memory_limit(const graphs::ModelRun& run) {
-    return run.outcome.status.kind == "resource_limit" ||
-           (run.report.is_object() && run.report.value("tries_over_memory_limit", 0) > 0);
-}
-
 // The collection flow graph: every model of the inputs, one folder each, a summary.
 int run_batch(const BatchArgs& args) {
     const std::filesystem::path out_root(args.out_dir);
     engine::prepare_output_folder(out_root);
     const std::vector<engine::ModelTask> tasks = engine::make_tasks(engine::expand_inputs(args.inputs), out_root);
-    const unsigned threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-
-    // Models finished by an earlier run with the same settings are reused, not recomputed.
-    const nlohmann::json settings = args.settings.fingerprint();
-    std::vector<engine::ModelOutcome> outcomes(tasks.size());
-    std::vector<engine::ModelTask> todo;
-    std::vector<std::size_t> todo_index;
-    for (std::size_t i = 0; i < tasks.size(); ++i) {
-        std::optional<engine::ModelOutcome> done = args.force ? std::nullopt : engine::finished_model(tasks[i], settings);
-        if (done) {
-            outcomes[i] = std::move(*done);
-            continue;
-        }
-        engine::ModelTask task = tasks[i];
-        task.id = todo.size();
-        todo.push_back(std::move(task));
-        todo_index.push_back(i);
-    }
-
-    // Models computed side by side share the memory limit. One that hits its share stops there
-    // and is computed again alone with the whole limit, as `segment` would: results never
-    // depend on --threads.
-    const std::size_t in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * threads;
-    const std::size_t concurrent = std::max<std::size_t>(1, std::min({std::size_t{threads}, in_flight, todo.size()}));
-    graphs::SegmentationGraphOptions options = args.settings.graph_options(concurrent);
-    options.max_in_flight = in_flight;
-    options.timeout = std::chrono::milliseconds(static_cast<long long>(args.timeout_s * 1000));
-    graphs::SegmentationGraphOptions alone = args.settings.graph_options(1);
-    alone.max_in_flight = 1;
-    alone.timeout = options.timeout;
-    const bool shared = options.segment.conformal.max_solver_bytes != alone.segment.conformal.max_solver_bytes;
-    options.segment.stop_at_memory_limit = shared;
-    engine::FactorizationCache cache;
-    const graphs::SegmentationGraph graph(options, &cache);
+    graphs::CollectionOptions options;
+    options.threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
+    options.graph = args.settings.graph_options();
+    options.graph.max_in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * options.threads;
+    options.graph.timeout = std::chrono::milliseconds(static_cast<long long>(args.timeout_s * 1000));
+    options.settings = args.settings.fingerprint();
+    options.force = args.force;
+    options.serial = args.serial;
     if (!args.dot.empty())
-        engine::write_file_atomic(args.dot, [&](std::ostream& out) { graph.to_dot(out); });
+        engine::write_file_atomic(args.dot, [&](std::ostream& out) { graphs::SegmentationGraph(options.graph).to_dot(out); });
 
     engine::BatchProgress progress(tasks.size(), std::cerr, ::isatty(STDERR_FILENO) == 1);
-    for (std::size_t i = 0; i < tasks.size() - todo.size(); ++i) progress.model_finished(false, true);
-    std::vector<std::size_t> deferred;  // ids in todo
-    const auto finish = [&](graphs::ModelRun& run) {
-        try {
-            engine::write_model_result(run.outcome, settings);
-        } catch (...) {
-            run.outcome.status = engine::status_from_exception(std::current_exception(), "result");
-        }
-        progress.model_finished(!run.outcome.status.ok(), false);
-    };
-    const auto on_done = [&](graphs::ModelRun& run) {
-        if (shared && over_memory_limit(run)) deferred.push_back(run.outcome.task.id);
-        else finish(run);
-    };
-    const auto run_graph = [&](const graphs::SegmentationGraph& g, const std::vector<engine::ModelTask>& list,
-                               const graphs::ModelCallback& callback) {
-        return args.serial ? g.run_serial(list, callback) : g.run(list, callback);
-    };
-    std::vector<graphs::ModelRun> runs = run_graph(graph, todo, on_done);
-    if (!deferred.empty()) {
-        std::sort(deferred.begin(), deferred.end());
-        std::cerr << "holoflow: " << deferred.size() << " model(s) over their share of the memory limit ("
-                  << (options.segment.conformal.max_solver_bytes >> 20) << " MiB), computed again one at a time with "
-                  << (alone.segment.conformal.max_solver_bytes >> 20) << " MiB:";
-        std::vector<engine::ModelTask> again;
-        for (std::size_t id : deferred) {
-            engine::ModelTask task = todo[id];
-            std::cerr << ' ' << task.name;
-            task.id = again.size();
-            again.push_back(std::move(task));
-        }
-        std::cerr << std::endl;
-        std::vector<graphs::ModelRun> rerun = run_graph(graphs::SegmentationGraph(alone, &cache), again, finish);
-        for (std::size_t k = 0; k < deferred.size(); ++k) {
-            rerun[k].outcome.task.id = deferred[k];
-            runs[deferred[k]] = std::move(rerun[k]);
-        }
-    }
+    engine::FactorizationCache cache;
+    const graphs::CollectionRun run = graphs::run_collection(tasks, options, progress, std::cerr, &cache);
     progress.finish();
-    for (std::size_t k = 0; k < runs.size(); ++k) {
-        outcomes[todo_index[k]] = std::move(runs[k].outcome);
-        outcomes[todo_index[k]].task = tasks[todo_index[k]];
-    }
-    engine::write_batch_summary(out_root, outcomes);
+    engine::write_batch_summary(out_root, run.outcomes);
 
     std::size_t failed = 0;
-    for (const engine::ModelOutcome& o : outcomes) failed += !o.status.ok();
+    for (const engine::ModelOutcome& o : run.outcomes) failed += !o.status.ok();
     std::cout << tasks.size() << " models: " << tasks.size() - failed << " ok, " << failed << " failed, "
-              << tasks.size() - todo.size() << " reused from an earlier run; summary in "
-              << (out_root / "summary.csv").string() << "\n";
+              << run.reused << " reused from an earlier run; summary in " << (out_root / "summary.csv").string()
+              << "\n";
     return failed == 0 ? 0 : engine::kExitBatchFailures;
 }
 
