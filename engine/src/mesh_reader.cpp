@@ -1231,8 +1231,8 @@ PolygonSoup read_polygon_soup(const std::string& path, std::uint64_t max_bytes) 
     const std::uintmax_t hint = fs::file_size(path, ec);
     if (!ec && max_bytes > 0 && hint > max_bytes) {
         std::fclose(file);
-        fail(Kind::TooLarge, "'", path, "' has ", hint >> 20, " MiB, more than the memory limit (", max_bytes >> 20,
-             " MiB) holds");
+        fail(Kind::TooLarge, "'", path, "' is ", hint >> 20, " MiB, more than the memory limit (", max_bytes >> 20,
+             " MiB)");
     }
     if (!ec && hint > 0) bytes.reserve(static_cast<std::size_t>(hint));
     char chunk[1 << 16];

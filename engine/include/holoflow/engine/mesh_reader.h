@@ -27,8 +27,8 @@ MeshFormat format_from_path(const std::string& path);
 //! Reads OFF, OBJ, PLY (ascii, binary little/big endian, `face` lists and `tristrips`) or STL
 //! (ascii or binary; corners welded by exact position). Never allocates more than the file can
 //! hold: header counts are checked against the file size first. A file of more than
-//! `max_bytes` (the memory limit; 0: none) is refused (TooLarge) before it is read, and so are
-//! FIFOs and devices.
+//! `max_bytes` (the memory limit; 0: none) is refused unread (TooLarge), and so are FIFOs and
+//! devices (Unreadable: a FIFO blocks until a writer comes, /dev/zero never ends).
 //! \throw MeshError with the kind naming the problem.
 PolygonSoup read_polygon_soup(const std::string& path, std::uint64_t max_bytes = 0);
 
