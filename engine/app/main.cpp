@@ -52,7 +52,7 @@ int run_guarded(const std::function<int()>& body) {
 // Loading options of every subcommand.
 struct LoadArgs {
     std::string components = "all";
-    std::string pinched_vertices = "split", zero_area_faces = "repair";
+    std::string pinched_vertices = "split", zero_area_faces = "repair", duplicate_faces = "drop";
     std::size_t max_faces = 0;
 
     void add_to(CLI::App& command) {
@@ -69,6 +69,10 @@ struct LoadArgs {
                         "triangles with collinear or coincident corners: remove them by edge collapses and flips "
                         "that keep the topology, or refuse the mesh")
             ->check(CLI::IsMember({"repair", "refuse"}));
+        command
+            .add_option("--duplicate-faces", duplicate_faces,
+                        "a triangle on the same vertices as an earlier one: drop it, or refuse the mesh")
+            ->check(CLI::IsMember({"drop", "refuse"}));
         command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
     }
     engine::LoadOptions options() const {
@@ -78,6 +82,8 @@ struct LoadArgs {
         o.pinched_vertices = pinched_vertices == "refuse" ? engine::PinchedVertexPolicy::Refuse
                                                           : engine::PinchedVertexPolicy::Split;
         o.zero_area_faces = zero_area_faces == "refuse" ? engine::ZeroAreaPolicy::Refuse : engine::ZeroAreaPolicy::Repair;
+        o.duplicate_faces =
+            duplicate_faces == "refuse" ? engine::DuplicateFacePolicy::Refuse : engine::DuplicateFacePolicy::Drop;
         o.max_faces = max_faces;
         return o;
     }
@@ -210,6 +216,7 @@ struct SegmentSettings {
     nlohmann::json fingerprint() const {
         return {{"mode", mode}, {"laplacian", laplacian}, {"component", load.components},
                 {"pinched_vertices", load.pinched_vertices}, {"zero_area_faces", load.zero_area_faces},
+                {"duplicate_faces", load.duplicate_faces},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
                 {"fill_holes", fill_holes}, {"max_working_genus", max_working_genus},
                 {"keep_holes_at_failed_fans", keep_holes_at_failed_fans}, {"max_memory_mb", memory_limit_bytes() >> 20},

@@ -437,6 +437,33 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
                      " triangles");
     }
 
+    {   // duplicated faces: same vertex set, in any order or winding; the first one stays
+        std::vector<std::pair<std::array<std::int64_t, 3>, std::size_t>> keys(triangles.size());
+        for (std::size_t t = 0; t < triangles.size(); ++t) {
+            keys[t] = {triangles[t], t};
+            std::sort(keys[t].first.begin(), keys[t].first.end());
+        }
+        std::sort(keys.begin(), keys.end());
+        std::vector<char> duplicate(triangles.size(), 0);
+        for (std::size_t i = 1; i < keys.size(); ++i) {
+            if (keys[i].first != keys[i - 1].first) continue;
+            if (options.duplicate_faces == DuplicateFacePolicy::Refuse)
+                fail(MeshErrorKind::DuplicateFace,
+                     "triangles " + std::to_string(keys[i - 1].second) + " and " +
+                         std::to_string(keys[i].second) + " use the same vertices (" +
+                         std::to_string(keys[i].first[0]) + ", " + std::to_string(keys[i].first[1]) +
+                         ", " + std::to_string(keys[i].first[2]) + ")");
+            duplicate[keys[i].second] = 1;  // equal keys sort by index: the first one stays
+        }
+        report.duplicate_faces = static_cast<std::size_t>(std::count(duplicate.begin(), duplicate.end(), 1));
+        if (report.duplicate_faces > 0) {
+            std::size_t kept = 0;
+            for (std::size_t t = 0; t < triangles.size(); ++t)
+                if (!duplicate[t]) triangles[kept++] = triangles[t];
+            triangles.resize(kept);
+        }
+    }
+
     const bool repair = options.zero_area_faces == ZeroAreaPolicy::Repair;
     if (repair) {
         repair_zero_area(soup, triangles, report);
@@ -452,22 +479,6 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
                      ", " + std::to_string(triangles[t][1]) + ", " + std::to_string(triangles[t][2]) +
                      (zero ? ") has zero area" : ") is so flat that its edge lengths lose its area to rounding") +
                      (repair ? " (no edge collapse or flip removes it without changing the topology)" : ""));
-    }
-
-    {   // duplicated faces: same vertex set, in any order or winding
-        std::vector<std::pair<std::array<std::int64_t, 3>, std::size_t>> keys(triangles.size());
-        for (std::size_t t = 0; t < triangles.size(); ++t) {
-            keys[t] = {triangles[t], t};
-            std::sort(keys[t].first.begin(), keys[t].first.end());
-        }
-        std::sort(keys.begin(), keys.end());
-        for (std::size_t i = 1; i < keys.size(); ++i)
-            if (keys[i].first == keys[i - 1].first)
-                fail(MeshErrorKind::DuplicateFace,
-                     "triangles " + std::to_string(keys[i - 1].second) + " and " +
-                         std::to_string(keys[i].second) + " use the same vertices (" +
-                         std::to_string(keys[i].first[0]) + ", " + std::to_string(keys[i].first[1]) +
-                         ", " + std::to_string(keys[i].first[2]) + ")");
     }
 
     PointMatrix V = Eigen::Map<const PointMatrix>(soup.positions.data(), n_v, 3);

@@ -17,6 +17,7 @@ nlohmann::json info_report(const std::string& path, const LoadedMesh& loaded,
         {"collapsed_edges", r.collapsed_edges},
         {"collapsed_faces", r.collapsed_faces},
         {"flipped_edges", r.flipped_edges},
+        {"duplicate_faces", r.duplicate_faces},
         {"dropped_components", r.dropped_components},
         {"dropped_faces", r.dropped_faces},
     };

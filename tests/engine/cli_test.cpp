@@ -81,7 +81,6 @@ const BadFile kBadFiles[] = {
     {"range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", MeshErrorKind::IndexOutOfRange},
     {"repeat.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1\n", MeshErrorKind::RepeatedVertex},
     {"flat.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n", MeshErrorKind::ZeroAreaFace},
-    {"dup.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 2 3 1\n", MeshErrorKind::DuplicateFace},
     {"fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
      MeshErrorKind::NonManifoldEdge},
 };
@@ -106,6 +105,31 @@ TEST(Cli, PinchedVerticesAreSplitUnlessRefused) {
     EXPECT_EQ(refused.status, engine::exit_status(MeshErrorKind::NonManifoldVertex)) << refused.err;
     EXPECT_EQ(refused.err.rfind("error: non_manifold_vertex: ", 0), 0u) << refused.err;
     EXPECT_TRUE(refused.out.empty());
+}
+
+// An STL with its body written twice (welded onto the same vertices): the copies are dropped
+// unless refused.
+TEST(Cli, DuplicateFacesAreDroppedUnlessRefused) {
+    test::TempDir dir;
+    std::string solid = "solid twice\n";
+    const char* corners[4][3] = {{"0 0 0", "0 1 0", "1 0 0"}, {"0 0 0", "1 0 0", "0 0 1"},
+                                 {"0 0 0", "0 0 1", "0 1 0"}, {"1 0 0", "0 1 0", "0 0 1"}};
+    for (int copy = 0; copy < 2; ++copy)
+        for (const auto& face : corners) {
+            solid += "facet normal 0 0 0\nouter loop\n";
+            for (const char* corner : face) solid += std::string("vertex ") + corner + "\n";
+            solid += "endloop\nendfacet\n";
+        }
+    const std::string path = dir.write("twice.stl", solid + "endsolid twice\n");
+    const auto dropped = test::run_cli("info --json '" + path + "'");
+    ASSERT_EQ(dropped.status, 0) << dropped.err;
+    const auto j = nlohmann::json::parse(dropped.out);
+    EXPECT_EQ(j["repairs"]["duplicate_faces"], 4);
+    EXPECT_EQ(j["faces"], 4);
+    EXPECT_EQ(j["closed"], true);
+    const auto refused = test::run_cli("info --duplicate-faces refuse '" + path + "'");
+    EXPECT_EQ(refused.status, engine::exit_status(MeshErrorKind::DuplicateFace)) << refused.err;
+    EXPECT_EQ(refused.err.rfind("error: duplicate_face: ", 0), 0u) << refused.err;
 }
 
 // knot2 is two knotted tori: each is segmented, the report holds both.

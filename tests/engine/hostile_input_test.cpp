@@ -559,9 +559,16 @@ TEST(HostileInput, IntersectingSeparateMeshesAreFine) {
 // 200 such 256-gons in a Release build). Now the rest is fanned at once; the cost comparison
 // with convex polygons is BM_engine_load_polygons in bench/mesh_io_bench.cpp. Here: the outcome.
 TEST(HostileInput, PolygonsWithoutEarsAreTriangulatedAndRefusedCleanly) {
-    // Both are refused after triangulation: the convex copies as duplicates, and the fan over
-    // the doubled circle meets a corner's twin (a zero-area triangle).
-    EXPECT_TRUE(refused_as(run(test::polygon_stack_off(256, 50, false), MeshFormat::Off),
+    // The convex copies triangulate alike: all but the first are dropped as duplicates (or the
+    // mesh refused, when asked); the fan over the doubled circle meets a corner's twin (a
+    // zero-area triangle) and is refused.
+    const Outcome copies = run(test::polygon_stack_off(256, 50, false), MeshFormat::Off);
+    ASSERT_TRUE(copies.loaded) << copies.detail;
+    EXPECT_EQ(copies.mesh.report.duplicate_faces, 49u * 254u);
+    EXPECT_EQ(copies.topology.faces, 254);
+    LoadOptions refuse;
+    refuse.duplicate_faces = DuplicateFacePolicy::Refuse;
+    EXPECT_TRUE(refused_as(run(test::polygon_stack_off(256, 50, false), MeshFormat::Off, refuse),
                            MeshErrorKind::DuplicateFace));
     EXPECT_TRUE(refused_as(run(test::polygon_stack_off(256, 50, true), MeshFormat::Off),
                            MeshErrorKind::ZeroAreaFace));

@@ -168,7 +168,9 @@ TEST(MeshLoader, EachBadInputHasItsKind) {
     // Two distinct vertices at one position make a zero-area face too.
     EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 1, 0, 0}, {{0, 1, 2}})),
               MeshErrorKind::ZeroAreaFace);
-    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0}, {{0, 1, 2}, {0, 2, 1}})),
+    LoadOptions no_duplicates;
+    no_duplicates.duplicate_faces = DuplicateFacePolicy::Refuse;
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0}, {{0, 1, 2}, {0, 2, 1}}), no_duplicates),
               MeshErrorKind::DuplicateFace);
     EXPECT_EQ(kind_of(soup_of({}, {})), MeshErrorKind::EmptyFile);
 

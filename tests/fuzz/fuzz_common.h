@@ -98,7 +98,8 @@ inline int read_load_topology(const std::uint8_t* data, std::size_t size, engine
         HOLOFLOW_FUZZ_CHECK(load(soup, engine::ComponentPolicy::All, strict, engine::PinchedVertexPolicy::Refuse) ==
                             (r.split_vertices == 0));
     }
-    HOLOFLOW_FUZZ_CHECK(soup.n_polygons() - r.triangulated_polygons + r.triangles_from_polygons - r.collapsed_faces ==
+    HOLOFLOW_FUZZ_CHECK(soup.n_polygons() - r.triangulated_polygons + r.triangles_from_polygons - r.duplicate_faces -
+                            r.collapsed_faces ==
                         static_cast<std::size_t>(mesh.n_faces()));
     // A loaded mesh is a valid surface: topology must not throw.
     const kernels::Topology t = kernels::compute_topology(mesh);

@@ -21,12 +21,17 @@ enum class PinchedVertexPolicy { Split, Refuse };
 //! changing the surface's topology, or a zero_area_face refusal.
 enum class ZeroAreaPolicy { Repair, Refuse };
 
+//! A triangle on the same three vertices as an earlier one, in either winding (an STL with a
+//! body written twice, a sheet exported two-sided): dropped, or a duplicate_face refusal.
+enum class DuplicateFacePolicy { Drop, Refuse };
+
 struct LoadOptions {
     ComponentPolicy components = ComponentPolicy::All;
     std::size_t max_faces = 0;  //!< 0: no limit beyond 32-bit indices
     std::uint64_t max_file_bytes = 0;  //!< a larger file is refused unread (the memory limit; 0: none)
     PinchedVertexPolicy pinched_vertices = PinchedVertexPolicy::Split;
     ZeroAreaPolicy zero_area_faces = ZeroAreaPolicy::Repair;
+    DuplicateFacePolicy duplicate_faces = DuplicateFacePolicy::Drop;
 };
 
 //! What the loader changed on the way from file to MeshView (all counts; 0 when untouched).
@@ -42,6 +47,7 @@ struct LoadReport {
     std::size_t collapsed_edges = 0;        //!< zero-area repair: edges whose two ends coincide, merged
     std::size_t collapsed_faces = 0;        //!< the faces on those edges, gone with them
     std::size_t flipped_edges = 0;          //!< zero-area repair: edges with a corner on them, flipped
+    std::size_t duplicate_faces = 0;        //!< on the vertices of an earlier face, dropped
     std::size_t components = 0;             //!< in the file
     std::size_t dropped_components = 0;     //!< with ComponentPolicy::Largest
     std::size_t dropped_faces = 0;          //!< faces of the dropped components
