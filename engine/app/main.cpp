@@ -2,7 +2,9 @@
 // `error: <kind>: <detail>` with a distinct exit status per kind (README "Exit status").
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -105,7 +107,7 @@ int run_info(const MeshArgs& mesh_args, bool json) {
     const kernels::Topology topology = kernels::compute_topology(*loaded.mesh);
     const nlohmann::json report = engine::info_report(mesh_args.path, loaded, topology);
     if (json)
-        std::cout << report.dump(2) << std::endl;
+        std::cout << engine::json_text(report) << std::endl;
     else
         std::cout << engine::format_info_text(report);
     return 0;
@@ -128,8 +130,8 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
     });
     engine::write_file_atomic(folder / "forms",
                               [&](std::ostream& out) { engine::write_forms(out, result); });
-    engine::write_file_atomic(folder / "conformal.json", report.dump(2) + "\n");
-    if (json) std::cout << report.dump(2) << std::endl;
+    engine::write_file_atomic(folder / "conformal.json", engine::json_text(report) + "\n");
+    if (json) std::cout << engine::json_text(report) << std::endl;
     else
         std::cout << "genus " << report["genus"] << ", working genus " << report["working_genus"]
                   << ", star error " << report["star_square_error"] << ", period symmetry error "
@@ -172,7 +174,8 @@ struct SegmentSettings {
                                         "MiB the conformal stage may use: a model that would need more is refused "
                                         "and a refinement that would is skipped; models computed at once share it, "
                                         "and one over its share is computed again alone (0: no limit; default: "
-                                        "3/4 of the memory)");
+                                        "3/4 of the memory)")
+                         ->check(CLI::Range(std::size_t{0}, std::size_t{1} << 30));
         command.add_option("--max-tips", max_tips, "most tips detected automatically")
             ->check(CLI::Range(2, 64));
         command.add_option("--hole-size", hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
@@ -247,12 +250,12 @@ int run_segment(const SegmentArgs& args) {
     if (!run.outcome.status.ok()) return report_error(run.outcome.status);
     const nlohmann::json& report = run.report;
     if (args.json) {
-        std::cout << report.dump(2) << std::endl;
+        std::cout << engine::json_text(report) << std::endl;
     } else {
         std::cout << "genus " << report["genus"] << ", working genus " << report["working_genus"] << ", "
                   << report["zero_count"] << " zeros (" << report["artifacts"] << " artifact clusters), "
                   << report["trajectories"] << " trajectories (" << report["unfinished_trajectories"]
-                  << " unfinished), " << report["patch_count"] << " patches " << report["patch_types"].dump()
+                  << " unfinished), " << report["patch_count"] << " patches " << engine::json_text(report["patch_types"], -1)
                   << ", flipped uv triangles " << report["flipped_uv_triangles"] << ", rectangle error "
                   << report["rectangle_error_max"] << "\nwrote segments.ply, patches.obj, trajectories.obj, "
                   << "domains.svg, complex.json, segmentation.json in " << folder.string() << "\n";
@@ -274,7 +277,7 @@ struct BatchArgs {
 int run_batch(const BatchArgs& args) {
     const std::filesystem::path out_root(args.out_dir);
     engine::prepare_output_folder(out_root);
-    const std::vector<engine::ModelTask> tasks = engine::make_tasks(engine::expand_inputs(args.inputs), out_root);
+    const std::vector<engine::ModelTask> tasks = engine::make_tasks(engine::expand_inputs(args.inputs, out_root), out_root);
     graphs::CollectionOptions options;
     options.threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
     options.graph = args.settings.graph_options();
@@ -283,8 +286,16 @@ int run_batch(const BatchArgs& args) {
     options.settings = args.settings.fingerprint();
     options.force = args.force;
     options.serial = args.serial;
-    if (!args.dot.empty())
+    if (!args.dot.empty()) {
+        // The diagram is written first: it must not replace an input (a mesh or a list).
+        std::vector<std::string> inputs = args.inputs;
+        for (const engine::ModelTask& task : tasks) inputs.push_back(task.path);
+        std::error_code ec;
+        for (const std::string& input : inputs)
+            if (std::filesystem::equivalent(args.dot, input, ec))
+                throw InvalidInput("--dot '" + args.dot + "' is the input '" + input + "': it would be overwritten");
         engine::write_file_atomic(args.dot, [&](std::ostream& out) { graphs::SegmentationGraph(options.graph).to_dot(out); });
+    }
 
     engine::BatchProgress progress(tasks.size(), std::cerr, ::isatty(STDERR_FILENO) == 1);
     engine::FactorizationCache cache;
@@ -351,7 +362,13 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 20));
     batch->add_option("--timeout", batch_args.timeout_s,
                       "seconds per model, checked between stages (0: no limit)")
-        ->check(CLI::Range(0.0, 1e9));
+        ->check(CLI::Range(0.0, 1e9))
+        ->check(CLI::Validator(
+            [](const std::string& text) {  // Range lets NaN through (every comparison with it is false)
+                return std::isnan(std::strtod(text.c_str(), nullptr)) ? std::string("not a number: ") + text
+                                                                      : std::string();
+            },
+            "", "NotNaN"));
     batch->add_flag("--force", batch_args.force, "recompute models finished by an earlier run");
     batch->add_flag("--serial", batch_args.serial, "run the serial twin instead of the flow graph");
     batch->add_option("--dot", batch_args.dot, "write the flow graph as a Graphviz DOT file");

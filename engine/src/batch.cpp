@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "holoflow/engine/output.h"
+#include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/errors.h"
 
 namespace holoflow::engine {
@@ -27,13 +28,19 @@ void add_unique(std::vector<std::string>& out, std::set<std::string>& seen, cons
     if (seen.insert(key).second) out.push_back(std::move(key));
 }
 
-void add_folder(std::vector<std::string>& out, std::set<std::string>& seen, const fs::path& folder) {
+// The mesh files under `folder`, except in the model folders of `out_root` (a batch writing into
+// a folder it reads would take its own outputs as inputs on the next run).
+void add_folder(std::vector<std::string>& out, std::set<std::string>& seen, const fs::path& folder,
+                const fs::path& out_root) {
     std::vector<fs::path> files;
     std::error_code ec;
     for (fs::recursive_directory_iterator it(folder, fs::directory_options::skip_permission_denied, ec), end;
          !ec && it != end; it.increment(ec)) {
         std::error_code type_ec;
-        if (it->is_regular_file(type_ec) && is_mesh_file(it->path())) files.push_back(it->path());
+        if (!out_root.empty() && it->is_directory(type_ec) && fs::equivalent(it->path().parent_path(), out_root, type_ec))
+            it.disable_recursion_pending();
+        else if (it->is_regular_file(type_ec) && is_mesh_file(it->path()))
+            files.push_back(it->path());
     }
     if (ec) throw InvalidInput("cannot list folder '" + folder.string() + "': " + ec.message());
     std::sort(files.begin(), files.end());
@@ -67,14 +74,14 @@ const std::vector<std::string> kStageOrder = {
 
 }  // namespace
 
-std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs) {
+std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs, const fs::path& out_root) {
     std::vector<std::string> out;
     std::set<std::string> seen;
     for (const std::string& input : inputs) {
         const fs::path path(input);
         std::error_code ec;
         if (fs::is_directory(path, ec)) {
-            add_folder(out, seen, path);
+            add_folder(out, seen, path, out_root);
         } else if (!fs::exists(path, ec)) {
             throw InvalidInput("input '" + input + "' does not exist");
         } else if (is_mesh_file(path)) {
@@ -92,7 +99,7 @@ std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs) {
                 fs::path entry(line);
                 if (entry.is_relative()) entry = path.parent_path() / entry;
                 if (fs::is_directory(entry, ec)) {
-                    add_folder(out, seen, entry);
+                    add_folder(out, seen, entry, out_root);
                 } else {
                     // A missing file becomes a failed model (file_not_found), not a refused batch:
                     // lists are often written before the files exist everywhere.
@@ -109,7 +116,7 @@ std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs) {
 
 std::vector<ModelTask> make_tasks(const std::vector<std::string>& paths, const fs::path& out_root) {
     std::vector<ModelTask> tasks;
-    std::set<std::string> taken;
+    std::set<std::string> taken = {"summary.json", "summary.csv"};  // the batch's own files
     for (std::size_t i = 0; i < paths.size(); ++i) {
         std::string stem = fs::path(paths[i]).stem().string();
         if (stem.empty() || stem == "." || stem == "..") stem = "model";
@@ -146,13 +153,28 @@ nlohmann::json outcome_json(const ModelOutcome& o) {
     return j;
 }
 
+namespace {
+
+// The input file as a re-run compares it: size and modification time (null if it cannot be read).
+nlohmann::json input_stamp(const std::string& path) {
+    std::error_code ec;
+    const std::uintmax_t bytes = fs::file_size(path, ec);
+    if (ec) return nullptr;
+    const fs::file_time_type modified = fs::last_write_time(path, ec);
+    if (ec) return nullptr;
+    return {{"bytes", bytes}, {"modified", modified.time_since_epoch().count()}};
+}
+
+}  // namespace
+
 void write_model_result(const ModelOutcome& outcome, const nlohmann::json& settings) {
     if (outcome.task.out_dir.empty()) return;
     prepare_output_folder(outcome.task.out_dir);
     remove_stale_temporaries(outcome.task.out_dir, {"result.json"});
     nlohmann::json j = outcome_json(outcome);
     j["settings"] = settings;
-    write_file_atomic(outcome.task.out_dir / "result.json", j.dump(2) + "\n");
+    j["input"] = input_stamp(outcome.task.path);
+    write_file_atomic(outcome.task.out_dir / "result.json", json_text(j) + "\n");
 }
 
 std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann::json& settings) {
@@ -162,9 +184,17 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
     // A result.json we cannot read back (edited, or from another version) means: recompute.
     const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
     try {
-        if (!j.is_object() || j.value("status", "") != "ok" || j.value("file", "") != task.path ||
+        // The path as result.json holds it (bytes that are no UTF-8 written as U+FFFD).
+        const std::string file = nlohmann::json::parse(json_text(task.path, -1)).get<std::string>();
+        if (!j.is_object() || j.value("status", "") != "ok" || j.value("file", "") != file ||
             !j.contains("settings") || j["settings"] != settings)
             return std::nullopt;
+        // The input changed since (edited, replaced), or an output went missing: recompute.
+        const nlohmann::json stamp = input_stamp(task.path);
+        if (stamp.is_null() || !j.contains("input") || j["input"] != stamp) return std::nullopt;
+        std::error_code ec;
+        for (const std::string& file : kSegmentationFiles)
+            if (!fs::is_regular_file(task.out_dir / file, ec)) return std::nullopt;
         ModelOutcome o;
         o.task = task;
         o.vertices = j.at("vertices").get<std::size_t>();
@@ -186,7 +216,7 @@ void write_batch_summary(const fs::path& out_root, const std::vector<ModelOutcom
     remove_stale_temporaries(out_root, {"summary.json", "summary.csv"});
     nlohmann::json all = nlohmann::json::array();
     for (const ModelOutcome& o : outcomes) all.push_back(outcome_json(o));
-    write_file_atomic(out_root / "summary.json", all.dump(2) + "\n");
+    write_file_atomic(out_root / "summary.json", json_text(all) + "\n");
 
     std::vector<std::string> stages = kStageOrder;
     for (const ModelOutcome& o : outcomes)

@@ -188,6 +188,10 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
     kernels::Topology topology = kernels::compute_topology(*work.input);
     r.input_genus = topology.genus;
     require_connected(topology);
+    for (Index tip : work.options.tips)  // ids of the input (slicing may first refine it)
+        if (tip < 0 || tip >= work.input->n_vertices())
+            throw InvalidInput("tip " + std::to_string(tip) + " is not a vertex of the mesh (it has " +
+                               std::to_string(work.input->n_vertices()) + " vertices)");
     // Small holes filled first (a scan's pinholes: each would add a handle to the double cover).
     const std::vector<Index> holes = kernels::holes_to_fill(*work.input, topology, work.options.holes);
     if (!holes.empty()) {
@@ -887,16 +891,15 @@ void write_segmentation_folder(const std::filesystem::path& folder, const Segmen
 void write_segmentation_folder(const std::filesystem::path& folder, std::span<const SegmentationResult> result,
                                const nlohmann::json& report) {
     prepare_output_folder(folder);
-    remove_stale_temporaries(folder, {"segments.ply", "patches.obj", "trajectories.obj", "domains.svg",
-                                      "complex.json", "segmentation.json"});
+    remove_stale_temporaries(folder, kSegmentationFiles);
     const SegmentationPicture picture = segmentation_picture(result);
     write_file_atomic(folder / "segments.ply", [&](std::ostream& out) { write_segments_ply(out, picture); });
     write_file_atomic(folder / "patches.obj", [&](std::ostream& out) { write_patches_obj(out, picture); });
     write_file_atomic(folder / "trajectories.obj",
                       [&](std::ostream& out) { write_trajectories_obj(out, picture); });
     write_file_atomic(folder / "domains.svg", [&](std::ostream& out) { write_domains_svg(out, picture); });
-    write_file_atomic(folder / "complex.json", complex_report(result).dump(1) + "\n");
-    write_file_atomic(folder / "segmentation.json", report.dump(2) + "\n");
+    write_file_atomic(folder / "complex.json", json_text(complex_report(result), 1) + "\n");
+    write_file_atomic(folder / "segmentation.json", json_text(report) + "\n");
 }
 
 SegmentationPicture segmentation_picture(const SegmentationResult& r) {

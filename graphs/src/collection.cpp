@@ -47,7 +47,7 @@ CollectionRun run_collection(const std::vector<engine::ModelTask>& tasks, const 
     const SegmentationGraphOptions& alone = options.graph;
     SegmentationGraphOptions shared = alone;
     const std::size_t concurrent =
-        std::max<std::size_t>(1, std::min({std::size_t{threads}, alone.max_in_flight, todo.size()}));
+        options.serial ? 1 : std::max<std::size_t>(1, std::min({std::size_t{threads}, alone.max_in_flight, todo.size()}));
     std::size_t& share = shared.segment.conformal.max_solver_bytes;
     share /= concurrent;
     const bool split = share != alone.segment.conformal.max_solver_bytes;

@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include "holoflow/engine/segmentation_pipeline.h"
 #include "support/test_support.h"
 
 extern char** environ;
@@ -65,7 +66,7 @@ TEST(MakeTasks, UniqueFolderNamesInInputOrder) {
 TEST(ModelResult, RoundTripsAndChecksSettings) {
     const TempDir dir;
     ModelOutcome o;
-    o.task = make_tasks({"m/eight.off"}, dir.path()).front();
+    o.task = make_tasks({dir.write("eight.off", slurp(corpus("eight.off")))}, dir.path() / "out").front();
     o.vertices = 316;
     o.faces = 634;
     o.genus = o.working_genus = 2;
@@ -74,10 +75,18 @@ TEST(ModelResult, RoundTripsAndChecksSettings) {
     o.timings_ms = {{"load", 1.5}, {"analyse", 0.25}, {"write", 2}};
     const nlohmann::json settings = {{"mode", "layout"}};
     write_model_result(o, settings);
+    EXPECT_FALSE(finished_model(o.task, settings).has_value()) << "no segmentation files: recompute";
+    for (const std::string& file : kSegmentationFiles) std::ofstream(o.task.out_dir / file) << "x";
     const std::optional<ModelOutcome> back = finished_model(o.task, settings);
     ASSERT_TRUE(back.has_value());
     EXPECT_EQ(outcome_json(*back), outcome_json(o));
     EXPECT_FALSE(finished_model(o.task, {{"mode", "vertical"}}).has_value()) << "other settings: recompute";
+    std::ofstream(o.task.path, std::ios::app) << "# edited\n";
+    EXPECT_FALSE(finished_model(o.task, settings).has_value()) << "input changed: recompute";
+    write_model_result(o, settings);
+    ASSERT_TRUE(finished_model(o.task, settings).has_value());
+    fs::remove(o.task.out_dir / "patches.obj");
+    EXPECT_FALSE(finished_model(o.task, settings).has_value()) << "an output missing: recompute";
     o.status = Status::failure("solver_failure", "factorise", "not positive definite", kExitSolverFailure);
     write_model_result(o, settings);
     EXPECT_FALSE(finished_model(o.task, settings).has_value()) << "failed models are retried";
@@ -245,6 +254,36 @@ TEST(BatchCommand, ModelsOverTheirMemoryShareAreComputedAgainAlone) {
             EXPECT_EQ(nlohmann::json::parse(slurp(out / model / "segmentation.json"))["tries_over_memory_limit"], 0);
         }
     }
+}
+
+// Inputs that tripped the batch up: an output folder among its inputs (the next run took its own
+// outputs as meshes), a model named like the summary (the summary could not be written), a file
+// name that is not UTF-8 (the JSON writer threw: no summary at all), and --dot naming an input
+// (written first, it replaced the mesh).
+TEST(BatchCommand, OddNamesAndFoldersAreHandled) {
+    const TempDir dir;
+    const fs::path in = dir.path() / "in";
+    fs::create_directories(in);
+    fs::copy_file(corpus("eight.off"), in / "summary.json.off");
+    fs::copy_file(corpus("eight.off"), in / "caf\xe9.off");
+    for (int run = 0; run < 2; ++run) {
+        const test::CommandResult r = run_cli("batch '" + in.string() + "' -o '" + in.string() + "'");
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_NE(r.out.find(run == 0 ? "2 models: 2 ok, 0 failed, 0 reused" : "2 models: 2 ok, 0 failed, 2 reused"),
+                  std::string::npos)
+            << r.out;
+    }
+    EXPECT_TRUE(fs::is_regular_file(in / "summary.json~2" / "segments.ply"));
+    const nlohmann::json summary = nlohmann::json::parse(slurp(in / "summary.json"));
+    ASSERT_EQ(summary.size(), 2u);
+    EXPECT_EQ(summary[0]["model"], "caf\xef\xbf\xbd");  // the byte that is no UTF-8 shown as U+FFFD
+
+    const std::string before = slurp(in / "summary.json.off");
+    const test::CommandResult dot = run_cli("batch '" + in.string() + "' -o '" + (dir.path() / "out").string() +
+                                            "' --dot '" + (in / "summary.json.off").string() + "'");
+    EXPECT_EQ(dot.status, kExitInvalidInput) << dot.err;
+    EXPECT_NE(dot.err.find("it would be overwritten"), std::string::npos) << dot.err;
+    EXPECT_EQ(slurp(in / "summary.json.off"), before);
 }
 
 TEST(BatchCommand, RefusesMissingInputsAndUnwritableOutput) {

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "holoflow/engine/mesh_error.h"
+#include "holoflow/engine/status.h"
 #include "support/test_support.h"
 
 namespace holoflow {
@@ -130,6 +131,18 @@ TEST(Cli, DuplicateFacesAreDroppedUnlessRefused) {
     const auto refused = test::run_cli("info --duplicate-faces refuse '" + path + "'");
     EXPECT_EQ(refused.status, engine::exit_status(MeshErrorKind::DuplicateFace)) << refused.err;
     EXPECT_EQ(refused.err.rfind("error: duplicate_face: ", 0), 0u) << refused.err;
+}
+
+// Option values that parsed before and meant nothing: a negative memory limit (wrapped to 2^64 - 1),
+// a NaN time limit (no limit), a tip past the input's vertices (checked on the refined mesh).
+TEST(Cli, OptionValuesOutOfTheirDomainAreRefused) {
+    test::TempDir dir;
+    const std::string mesh = test::corpus("eight.off"), out = (dir.path() / "o").string();
+    EXPECT_EQ(test::run_cli("batch '" + mesh + "' -o '" + out + "' --max-memory -1").status, engine::kExitUsage);
+    EXPECT_EQ(test::run_cli("batch '" + mesh + "' -o '" + out + "' --timeout nan").status, engine::kExitUsage);
+    const auto tip = test::run_cli("segment '" + test::corpus("bull.off") + "' -o '" + out + "' --tips 1,90000");
+    EXPECT_EQ(tip.status, engine::kExitInvalidInput) << tip.err;
+    EXPECT_NE(tip.err.find("tip 90000 is not a vertex of the mesh"), std::string::npos) << tip.err;
 }
 
 // knot2 is two knotted tori: each is segmented, the report holds both.

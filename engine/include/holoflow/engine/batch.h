@@ -37,9 +37,11 @@ struct ModelOutcome {
 //! \brief Mesh files named by command-line inputs, in order: a mesh file (.off .obj .ply .stl)
 //! as is; a folder: its mesh files, recursively, sorted by path; any other file: a list with one
 //! path per line (blank lines and lines starting with # skipped; relative paths are relative to
-//! the list's folder). A path given twice is kept once (its first place).
+//! the list's folder). A path given twice is kept once (its first place). Folders are searched
+//! without the model folders of `out_root` (a batch whose output lies among its inputs).
 //! \throw InvalidInput naming an input that does not exist or a list line that names nothing.
-std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs);
+std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs,
+                                       const std::filesystem::path& out_root = {});
 
 //! Tasks for the paths, each writing into out_root/<name>: the file's stem, made unique in
 //! input order by a `~2`, `~3`, ... suffix.
@@ -53,7 +55,8 @@ nlohmann::json outcome_json(const ModelOutcome& outcome);
 void write_model_result(const ModelOutcome& outcome, const nlohmann::json& settings);
 
 //! The outcome of an earlier run of `task` with the same settings that succeeded, if its
-//! result.json says so (failed models are retried).
+//! result.json says so, its input file has the size and modification time it had then, and its
+//! segmentation files are all there (failed models are retried).
 std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann::json& settings);
 
 //! Writes out_root/summary.json (array in task order) and summary.csv (one row per model,

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "holoflow/engine/conformal_pipeline.h"
 
 namespace holoflow::engine {
@@ -25,6 +27,10 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
 //! Removes the temporaries write_file_atomic leaves in `folder` when a run is killed while
 //! writing one of `names` (only those: the folder may hold the user's own files).
 void remove_stale_temporaries(const std::filesystem::path& folder, const std::vector<std::string>& names);
+
+//! JSON text of `j` (`indent` as nlohmann::json::dump). Strings that are not valid UTF-8 (a file
+//! name in another encoding) get U+FFFD for their bad bytes instead of failing the dump.
+std::string json_text(const nlohmann::json& j, int indent = 2);
 
 //! Creates the folder (and parents) if needed and checks it is writable. \throw OutputError.
 void prepare_output_folder(const std::filesystem::path& folder);

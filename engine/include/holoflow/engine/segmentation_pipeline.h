@@ -140,6 +140,10 @@ nlohmann::json segmentation_report(const SegmentationResult& result);
 //! `complex.json`: the flow complex G = (V, E, F) with adjacency (format in README).
 nlohmann::json complex_report(const SegmentationResult& result);
 
+//! The files of a segmentation folder, segmentation.json last (the order they are written in).
+inline const std::vector<std::string> kSegmentationFiles = {"segments.ply", "patches.obj", "trajectories.obj",
+                                                            "domains.svg", "complex.json", "segmentation.json"};
+
 //! Writes segments.ply, patches.obj, trajectories.obj, domains.svg, complex.json and, last,
 //! `report` as segmentation.json into `folder` (created if needed; temporaries a killed run left
 //! of these files are removed first), each atomically. \throw OutputError.
