@@ -193,8 +193,8 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
         const nlohmann::json stamp = input_stamp(task.path);
         if (stamp.is_null() || !j.contains("input") || j["input"] != stamp) return std::nullopt;
         std::error_code ec;
-        for (const std::string& file : kSegmentationFiles)
-            if (!fs::is_regular_file(task.out_dir / file, ec)) return std::nullopt;
+        for (const std::string& name : kSegmentationFiles)
+            if (!fs::is_regular_file(task.out_dir / name, ec)) return std::nullopt;
         ModelOutcome o;
         o.task = task;
         o.vertices = j.at("vertices").get<std::size_t>();
