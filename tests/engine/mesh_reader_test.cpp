@@ -152,7 +152,7 @@ TEST(OffReader, ColouredQuadWithCountsOnKeywordLineAndComments) {
 // stream when it holds exactly the announced elements; colours after an element need the line
 // layout, and a file that fits neither keeps the line reader's error.
 TEST(OffReader, FreeLayoutIsReadAsATokenStream) {
-    for (const std::string off : {std::string("OFF\n4 4 6\n0 0 0 1 0 0 0 1 0 0 0 1\n3 0 2 1 3 0 1 3 3 0 3 2 3 1 2 3\n"),
+    for (const std::string& off : {std::string("OFF\n4 4 6\n0 0 0 1 0 0 0 1 0 0 0 1\n3 0 2 1 3 0 1 3 3 0 3 2 3 1 2 3\n"),
                                   std::string("OFF\t4 4 6\t0 0 0\t1 0 0\t0 1 0\t0 0 1\t3 0 2 1\t3 0 1 3\t3 0 3 2\t3 1 2 3"),
                                   std::string("OFF\n4 4\n0 0\n0 1 0 0 # x y z may wrap\n0 1 0\n0 0 1\n3\n0 2 1\n"
                                               "3 0 1 3 3 0 3 2\n3 1 2 3\n# end\n")}) {
