@@ -42,13 +42,27 @@ int report_error(const engine::Status& status) {
     return report_error(status.kind, status.message, status.exit_code);
 }
 
-// Runs one subcommand and turns every failure into one stderr line and an exit status.
+// Runs one subcommand and turns every failure into one stderr line and an exit status; what it
+// printed must have reached stdout (a full disk, a closed pipe).
 int run_guarded(const std::function<int()>& body) {
     try {
-        return body();
+        const int status = body();
+        if (!std::cout.flush())
+            return report_error("output_error", "cannot write to standard output", engine::kExitOutputError);
+        return status;
     } catch (...) {
         return report_error(engine::status_from_exception(std::current_exception(), "main"));
     }
+}
+
+// Memory the process may use: physical memory, or the cgroup's limit where that is lower.
+std::size_t available_memory_bytes() {
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+    std::size_t bytes = pages > 0 && page > 0 ? static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) : 0;
+    std::ifstream cgroup("/sys/fs/cgroup/memory.max");
+    std::size_t limit = 0;
+    if (cgroup >> limit && limit > 0 && (bytes == 0 || limit < bytes)) bytes = limit;  // "max" reads as no number
+    return bytes;
 }
 
 // Loading options of every subcommand.
@@ -87,6 +101,7 @@ struct LoadArgs {
         o.duplicate_faces =
             duplicate_faces == "refuse" ? engine::DuplicateFacePolicy::Refuse : engine::DuplicateFacePolicy::Drop;
         o.max_faces = max_faces;
+        o.max_file_bytes = available_memory_bytes() / 4 * 3;  // `segment` and `batch`: --max-memory
         return o;
     }
 };
@@ -138,16 +153,6 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
                   << report["period_symmetry_error"] << "\nwrote " << (folder / "uv.obj").string()
                   << ", forms, conformal.json\n";
     return 0;
-}
-
-// Memory the process may use: physical memory, or the cgroup's limit where that is lower.
-std::size_t available_memory_bytes() {
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-    std::size_t bytes = pages > 0 && page > 0 ? static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) : 0;
-    std::ifstream cgroup("/sys/fs/cgroup/memory.max");
-    std::size_t limit = 0;
-    if (cgroup >> limit && limit > 0 && (bytes == 0 || limit < bytes)) bytes = limit;  // "max" reads as no number
-    return bytes;
 }
 
 // Options shared by `segment` and `batch`.

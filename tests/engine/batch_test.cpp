@@ -286,6 +286,19 @@ TEST(BatchCommand, OddNamesAndFoldersAreHandled) {
     EXPECT_EQ(slurp(in / "summary.json.off"), before);
 }
 
+// A model that fails keeps no files of an earlier run, which would pass for its result.
+TEST(BatchCommand, AFailedModelKeepsNoEarlierFiles) {
+    const TempDir dir;
+    const fs::path mesh = dir.path() / "m.off", out = dir.path() / "out";
+    fs::copy_file(corpus("eight.off"), mesh);
+    ASSERT_EQ(run_cli("batch '" + mesh.string() + "' -o '" + out.string() + "'").status, 0);
+    ASSERT_TRUE(fs::exists(out / "m" / "segments.ply"));
+    std::ofstream(mesh, std::ios::trunc) << "OFF\n3 1 0\n0 0 0\n";
+    EXPECT_EQ(run_cli("batch '" + mesh.string() + "' -o '" + out.string() + "'").status, kExitBatchFailures);
+    for (const std::string& file : kSegmentationFiles) EXPECT_FALSE(fs::exists(out / "m" / file)) << file;
+    EXPECT_EQ(nlohmann::json::parse(slurp(out / "m" / "result.json"))["status"], "failed");
+}
+
 TEST(BatchCommand, RefusesMissingInputsAndUnwritableOutput) {
     const TempDir dir;
     const test::CommandResult missing = run_cli("batch '" + (dir.path() / "none").string() + "' -o '" +

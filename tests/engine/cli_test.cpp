@@ -1,10 +1,12 @@
 // End-to-end checks of the holoflow executable: output format, error lines and exit statuses.
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <sys/wait.h>
 
 #include "holoflow/engine/mesh_error.h"
 #include "holoflow/engine/status.h"
@@ -143,6 +145,27 @@ TEST(Cli, OptionValuesOutOfTheirDomainAreRefused) {
     const auto tip = test::run_cli("segment '" + test::corpus("bull.off") + "' -o '" + out + "' --tips 1,90000");
     EXPECT_EQ(tip.status, engine::kExitInvalidInput) << tip.err;
     EXPECT_NE(tip.err.find("tip 90000 is not a vertex of the mesh"), std::string::npos) << tip.err;
+}
+
+// What a command prints must reach stdout: a full device is an output error, not success. And a
+// file larger than the memory could hold is refused unread by `info` too (a sparse file here).
+TEST(Cli, StdoutThatCannotBeWrittenAndHugeFilesAreErrors) {
+    test::TempDir dir;
+    const std::string err = (dir.path() / "err").string();
+    const int raw = std::system(("'" + std::string(HOLOFLOW_CLI) + "' info --json '" + test::corpus("eight.off") +
+                                 "' >/dev/full 2>'" + err + "'")
+                                    .c_str());
+    ASSERT_TRUE(WIFEXITED(raw));
+    EXPECT_EQ(WEXITSTATUS(raw), engine::kExitOutputError) << test::slurp(err);
+    EXPECT_NE(test::slurp(err).find("cannot write to standard output"), std::string::npos);
+
+    const std::filesystem::path huge = dir.path() / "huge.off";
+    std::ofstream(huge) << "OFF\n";
+    std::error_code ec;
+    std::filesystem::resize_file(huge, std::uintmax_t{1} << 40, ec);  // 1 TiB, sparse
+    if (ec) GTEST_SKIP() << "this file system has no 1 TiB sparse files: " << ec.message();
+    const auto r = test::run_cli("info '" + huge.string() + "'");
+    EXPECT_EQ(r.status, engine::exit_status(MeshErrorKind::TooLarge)) << r.err;
 }
 
 // knot2 is two knotted tori: each is segmented, the report holds both.
