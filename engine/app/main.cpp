@@ -65,6 +65,9 @@ std::size_t available_memory_bytes() {
     return bytes;
 }
 
+// The memory limit without --max-memory: 3/4 of what the process may use.
+std::size_t default_memory_limit_bytes() { return available_memory_bytes() / 4 * 3; }
+
 // Loading options of every subcommand.
 struct LoadArgs {
     std::string components = "all";
@@ -101,7 +104,7 @@ struct LoadArgs {
         o.duplicate_faces =
             duplicate_faces == "refuse" ? engine::DuplicateFacePolicy::Refuse : engine::DuplicateFacePolicy::Drop;
         o.max_faces = max_faces;
-        o.max_file_bytes = available_memory_bytes() / 4 * 3;  // `segment` and `batch`: --max-memory
+        o.max_file_bytes = default_memory_limit_bytes();  // `segment` and `batch`: --max-memory
         return o;
     }
 };
@@ -201,7 +204,7 @@ struct SegmentSettings {
     }
     //! The memory limit in bytes (0: none).
     std::size_t memory_limit_bytes() const {
-        return max_memory != nullptr && max_memory->count() == 0 ? available_memory_bytes() / 4 * 3 : max_memory_mb << 20;
+        return max_memory != nullptr && max_memory->count() == 0 ? default_memory_limit_bytes() : max_memory_mb << 20;
     }
     //! With the whole memory limit (a batch splits it between the models computed at once).
     graphs::SegmentationGraphOptions graph_options() const {

@@ -171,6 +171,12 @@ void write_model_result(const ModelOutcome& outcome, const nlohmann::json& setti
     if (outcome.task.out_dir.empty()) return;
     prepare_output_folder(outcome.task.out_dir);
     remove_stale_temporaries(outcome.task.out_dir, {"result.json"});
+    if (!outcome.status.ok()) {
+        // A failed model keeps no segmentation files (an earlier run's, or its own half set):
+        // they would pass for its result.
+        std::error_code ec;
+        for (const std::string& name : kSegmentationFiles) fs::remove(outcome.task.out_dir / name, ec);
+    }
     nlohmann::json j = outcome_json(outcome);
     j["settings"] = settings;
     j["input"] = input_stamp(outcome.task.path);

@@ -1224,16 +1224,14 @@ PolygonSoup read_polygon_soup(const std::string& path, std::uint64_t max_bytes) 
     if (status.type() != fs::file_type::regular)
         fail(Kind::Unreadable, "'", path, "' is not a regular file (a FIFO, socket or device)");
     const MeshFormat format = format_from_path(path);
+    const std::uintmax_t hint = fs::file_size(path, ec);
+    if (!ec && max_bytes > 0 && hint > max_bytes)
+        fail(Kind::TooLarge, "'", path, "' is ", hint >> 20, " MiB, more than the memory limit (", max_bytes >> 20,
+             " MiB)");
 
     std::FILE* file = std::fopen(path.c_str(), "rb");
     if (!file) fail(Kind::Unreadable, "cannot open '", path, "': ", std::strerror(errno));
     std::string bytes;
-    const std::uintmax_t hint = fs::file_size(path, ec);
-    if (!ec && max_bytes > 0 && hint > max_bytes) {
-        std::fclose(file);
-        fail(Kind::TooLarge, "'", path, "' is ", hint >> 20, " MiB, more than the memory limit (", max_bytes >> 20,
-             " MiB)");
-    }
     if (!ec && hint > 0) bytes.reserve(static_cast<std::size_t>(hint));
     char chunk[1 << 16];
     for (;;) {

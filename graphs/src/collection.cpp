@@ -2,12 +2,10 @@
 
 #include <algorithm>
 #include <exception>
-#include <filesystem>
 #include <optional>
 
 #include <tbb/global_control.h>
 
-#include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/engine/status.h"
 
 namespace holoflow::graphs {
@@ -57,13 +55,6 @@ CollectionRun run_collection(const std::vector<engine::ModelTask>& tasks, const 
 
     std::vector<std::size_t> deferred;  // ids in todo
     const auto finish = [&](ModelRun& run) {
-        if (!run.outcome.status.ok() && !run.outcome.task.out_dir.empty()) {
-            // A failed model keeps no files of an earlier run (nor its own half set): they would
-            // pass for its result.
-            std::error_code ec;
-            for (const std::string& name : engine::kSegmentationFiles)
-                std::filesystem::remove(run.outcome.task.out_dir / name, ec);
-        }
         try {
             engine::write_model_result(run.outcome, options.settings);
         } catch (...) {

@@ -51,7 +51,8 @@ std::vector<ModelTask> make_tasks(const std::vector<std::string>& paths, const s
 nlohmann::json outcome_json(const ModelOutcome& outcome);
 
 //! \brief `result.json` in the model's folder: outcome_json plus the settings it was computed
-//! with; written last (atomically), so its presence marks a finished model. \throw OutputError.
+//! with and the input's size and time; written last (atomically), so its presence marks a
+//! finished model. A failed model's segmentation files are removed first. \throw OutputError.
 void write_model_result(const ModelOutcome& outcome, const nlohmann::json& settings);
 
 //! The outcome of an earlier run of `task` with the same settings that succeeded, if its
