@@ -133,8 +133,9 @@ int run_info(const MeshArgs& mesh_args, bool json) {
 
 int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const std::string& laplacian,
                   bool json) {
-    const std::filesystem::path folder(out_dir);
-    engine::prepare_output_folder(folder);  // fail before the work, not after
+    const engine::OutputFolder output(out_dir);  // fail before the work, not after
+    const std::filesystem::path& folder = output.path();
+    engine::remove_stale_temporaries(folder, {"uv.obj", "forms", "conformal.json"});
     const engine::LoadedMesh loaded = engine::load_mesh(mesh_args.path, mesh_args.options());
     engine::ConformalOptions options;
     options.laplacian = laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic
@@ -143,12 +144,11 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
     nlohmann::json report = engine::conformal_report(result);
     report["file"] = mesh_args.path;
     report["laplacian"] = laplacian;
-    engine::write_file_atomic(folder / "uv.obj", [&](std::ostream& out) {
-        engine::write_uv_obj(out, *loaded.mesh, result);
-    });
-    engine::write_file_atomic(folder / "forms",
-                              [&](std::ostream& out) { engine::write_forms(out, result); });
-    engine::write_file_atomic(folder / "conformal.json", engine::json_text(report) + "\n");
+    engine::FileSet files;  // conformal.json marks a whole set
+    files.add(folder / "uv.obj", [&](std::ostream& out) { engine::write_uv_obj(out, *loaded.mesh, result); });
+    files.add(folder / "forms", [&](std::ostream& out) { engine::write_forms(out, result); });
+    files.add(folder / "conformal.json", engine::json_text(report) + "\n");
+    files.commit();
     if (json) std::cout << engine::json_text(report) << std::endl;
     else
         std::cout << "genus " << report["genus"] << ", working genus " << report["working_genus"]
@@ -244,8 +244,8 @@ struct SegmentArgs {
 
 // The per-model flow graph on one mesh.
 int run_segment(const SegmentArgs& args) {
-    const std::filesystem::path folder(args.out_dir);
-    engine::prepare_output_folder(folder);  // fail before the work, not after
+    const engine::OutputFolder output(args.out_dir);  // fail before the work, not after
+    const std::filesystem::path& folder = output.path();
     graphs::SegmentationGraphOptions options = args.settings.graph_options();
     options.segment.tips = args.tips;
     options.max_in_flight = 1;
@@ -283,9 +283,10 @@ struct BatchArgs {
 
 // The collection flow graph: every model of the inputs, one folder each, a summary.
 int run_batch(const BatchArgs& args) {
-    const std::filesystem::path out_root(args.out_dir);
-    engine::prepare_output_folder(out_root);
+    const engine::OutputFolder output(args.out_dir);
+    const std::filesystem::path& out_root = output.path();
     const std::vector<engine::ModelTask> tasks = engine::make_tasks(engine::expand_inputs(args.inputs, out_root), out_root);
+    if (tasks.empty()) throw InvalidInput("the inputs name no mesh files (.off .obj .ply .stl)");
     graphs::CollectionOptions options;
     options.threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
     options.graph = args.settings.graph_options();

@@ -23,9 +23,31 @@ bool is_mesh_file(const fs::path& path) {
     return ext == ".off" || ext == ".obj" || ext == ".ply" || ext == ".stl";
 }
 
+// Keeps the path as spelled, unless an earlier input is the same file (another spelling, a
+// symbolic link to it): a model is computed once.
 void add_unique(std::vector<std::string>& out, std::set<std::string>& seen, const fs::path& path) {
-    std::string key = path.lexically_normal().string();
-    if (seen.insert(key).second) out.push_back(std::move(key));
+    std::error_code ec;
+    fs::path identity = fs::weakly_canonical(path, ec);
+    if (ec) identity = fs::absolute(path, ec).lexically_normal();
+    if (seen.insert(identity.string()).second) out.push_back(path.lexically_normal().string());
+}
+
+// Why `path` (not a mesh file by name) cannot be a list of paths, or empty if it can: lists are
+// text, and a mesh under another name is better named as such than read line by line.
+std::string not_a_list(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string head(4096, '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    if (head.find('\0') != std::string::npos) return "it holds binary data";
+    if (head.compare(0, 3, "\xEF\xBB\xBF") == 0) head.erase(0, 3);
+    std::string first = head.substr(0, head.find_first_of("\r\n"));
+    first.erase(0, first.find_first_not_of(" \t"));
+    const std::string word = first.substr(0, first.find_first_of(" \t"));
+    for (const char* mesh : {"OFF", "COFF", "NOFF", "CNOFF", "STOFF", "ply", "solid"})
+        if (word == mesh)
+            return "it looks like a mesh file; name it with its format's extension (.off .obj .ply .stl)";
+    return {};
 }
 
 // The mesh files under `folder`, except in the model folders of `out_root` (a batch writing into
@@ -89,6 +111,9 @@ std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs, c
         } else {
             std::ifstream list(path);
             if (!list) throw InvalidInput("cannot read the list '" + input + "'");
+            if (const std::string why = not_a_list(path); !why.empty())
+                throw InvalidInput("input '" + input + "' is not a mesh file (.off .obj .ply .stl), a folder or a "
+                                   "text list of paths: " + why);
             std::string line;
             std::size_t number = 0;
             while (std::getline(list, line)) {
@@ -116,10 +141,17 @@ std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs, c
 
 std::vector<ModelTask> make_tasks(const std::vector<std::string>& paths, const fs::path& out_root) {
     std::vector<ModelTask> tasks;
-    std::set<std::string> taken = {"summary.json", "summary.csv"};  // the batch's own files
+    std::set<std::string> taken = {"summary.json", "summary.csv", kOutputLockFile};  // the batch's own files
     for (std::size_t i = 0; i < paths.size(); ++i) {
         std::string stem = fs::path(paths[i]).stem().string();
         if (stem.empty() || stem == "." || stem == "..") stem = "model";
+        // Room for a suffix within a file name's 255 bytes, cut between UTF-8 characters.
+        constexpr std::size_t kMaxStem = 200;
+        if (stem.size() > kMaxStem) {
+            std::size_t cut = kMaxStem;
+            while (cut > 0 && (static_cast<unsigned char>(stem[cut]) & 0xC0) == 0x80) --cut;
+            stem.resize(cut);
+        }
         std::string name = stem;
         for (int n = 2; taken.count(name); ++n) name = stem + "~" + std::to_string(n);
         taken.insert(name);
@@ -222,7 +254,6 @@ void write_batch_summary(const fs::path& out_root, const std::vector<ModelOutcom
     remove_stale_temporaries(out_root, {"summary.json", "summary.csv"});
     nlohmann::json all = nlohmann::json::array();
     for (const ModelOutcome& o : outcomes) all.push_back(outcome_json(o));
-    write_file_atomic(out_root / "summary.json", json_text(all) + "\n");
 
     std::vector<std::string> stages = kStageOrder;
     for (const ModelOutcome& o : outcomes)
@@ -249,7 +280,10 @@ void write_batch_summary(const fs::path& out_root, const std::vector<ModelOutcom
         }
         csv << ',' << format_ms(total) << '\n';
     }
-    write_file_atomic(out_root / "summary.csv", csv.str());
+    FileSet files;  // summary.json, the marker, last: it never stands beside another run's csv
+    files.add(out_root / "summary.csv", csv.str());
+    files.add(out_root / "summary.json", json_text(all) + "\n");
+    files.commit();
 }
 
 BatchProgress::BatchProgress(std::size_t total, std::ostream& out, bool interactive,

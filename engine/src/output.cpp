@@ -1,8 +1,16 @@
 #include "holoflow/engine/output.h"
 
+#include <cerrno>
 #include <charconv>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <limits>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace holoflow::engine {
@@ -22,55 +30,164 @@ void prepare_output_folder(const std::filesystem::path& folder) {
 }
 
 namespace {
-constexpr const char* kTemporaryTag = ".tmp";  // temporaries are .<name>.tmp<pid>
-}  // namespace
 
-void remove_stale_temporaries(const std::filesystem::path& folder, const std::vector<std::string>& names) {
-    std::error_code ec;
-    for (std::filesystem::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
-        const std::string file = it->path().filename().string();
-        for (const std::string& name : names) {
-            const std::string prefix = "." + name + kTemporaryTag;
-            if (file.size() > prefix.size() && file.compare(0, prefix.size(), prefix) == 0 &&
-                file.find_first_not_of("0123456789", prefix.size()) == std::string::npos) {
-                std::error_code ignored;
-                std::filesystem::remove(it->path(), ignored);
-            }
-        }
-    }
+namespace fs = std::filesystem;
+
+constexpr const char* kTemporaryTag = ".tmp";  // temporaries are .<name>.tmp<pid>
+
+bool process_running(long pid) {
+    return pid > 0 && pid <= std::numeric_limits<pid_t>::max() &&
+           (::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM);
 }
 
-void write_file_atomic(const std::filesystem::path& path,
-                       const std::function<void(std::ostream&)>& write) {
+// Streams `write` into the temporary of `path` and returns its name; on failure nothing is left.
+fs::path write_temporary(const fs::path& path, const std::function<void(std::ostream&)>& write) {
     std::string name = ".";
     name += path.filename().string();
     name += kTemporaryTag;
     name += std::to_string(::getpid());
-    const std::filesystem::path temporary = path.parent_path() / name;
-    {
-        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-        try {
-            if (out) write(out);
-        } catch (...) {  // a writer that refuses its data leaves no temporary behind
-            out.close();
-            std::error_code ignored;
-            std::filesystem::remove(temporary, ignored);
-            throw;
-        }
-        out.flush();
-        if (!out) {
-            out.close();
-            std::error_code ignored;
-            std::filesystem::remove(temporary, ignored);
-            throw OutputError("cannot write '" + path.string() + "' (disk full or not writable)");
-        }
+    const fs::path temporary = path.parent_path() / name;
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    try {
+        if (out) write(out);
+    } catch (...) {  // a writer that refuses its data leaves no temporary behind
+        out.close();
+        std::error_code ignored;
+        fs::remove(temporary, ignored);
+        throw;
     }
+    out.flush();
+    if (!out) {
+        out.close();
+        std::error_code ignored;
+        fs::remove(temporary, ignored);
+        throw OutputError("cannot write '" + path.string() + "' (disk full or not writable)");
+    }
+    return temporary;
+}
+
+void move_into_place(const fs::path& temporary, const fs::path& path) {
     std::error_code ec;
-    std::filesystem::rename(temporary, path, ec);
+    fs::rename(temporary, path, ec);
     if (ec) {
-        std::filesystem::remove(temporary, ec);
+        fs::remove(temporary, ec);
         throw OutputError("cannot move the finished '" + path.string() + "' into place");
     }
+}
+
+}  // namespace
+
+void remove_stale_temporaries(const fs::path& folder, const std::vector<std::string>& names) {
+    std::error_code ec;
+    for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string file = it->path().filename().string();
+        for (const std::string& name : names) {
+            const std::string prefix = "." + name + kTemporaryTag;
+            if (file.size() <= prefix.size() || file.compare(0, prefix.size(), prefix) != 0 ||
+                file.size() - prefix.size() > 18 ||
+                file.find_first_not_of("0123456789", prefix.size()) != std::string::npos)
+                continue;
+            // Another run writing into this folder right now keeps its temporary.
+            if (process_running(std::stol(file.substr(prefix.size())))) continue;
+            std::error_code ignored;
+            fs::remove(it->path(), ignored);
+        }
+    }
+}
+
+void write_file_atomic(const fs::path& path, const std::function<void(std::ostream&)>& write) {
+    move_into_place(write_temporary(path, write), path);
+}
+
+FileSet::~FileSet() {
+    std::error_code ignored;
+    for (const Staged& s : staged_) fs::remove(s.temporary, ignored);
+}
+
+void FileSet::add(const fs::path& path, const std::function<void(std::ostream&)>& write) {
+    staged_.push_back({write_temporary(path, write), path});
+}
+
+void FileSet::add(const fs::path& path, const std::string& content) {
+    add(path, [&](std::ostream& out) { out.write(content.data(), static_cast<std::streamsize>(content.size())); });
+}
+
+void FileSet::commit() {
+    if (staged_.empty()) return;
+    std::error_code ec;
+    fs::remove(staged_.back().path, ec);  // the old marker goes first: the old set is no longer whole
+    while (!staged_.empty()) {
+        const Staged next = staged_.front();
+        staged_.erase(staged_.begin());
+        move_into_place(next.temporary, next.path);
+    }
+}
+
+OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {
+    std::error_code ec;
+    fs::path level = folder_.lexically_normal();
+    if (!level.has_filename()) level = level.parent_path();  // "out/"
+    for (; !level.empty() && !fs::exists(fs::symlink_status(level, ec)); level = level.parent_path()) {
+        created_.push_back(level);
+        if (level == level.parent_path()) break;
+    }
+    try {
+        prepare_output_folder(folder_);
+        lock();
+    } catch (...) {
+        remove_created();
+        throw;
+    }
+}
+
+OutputFolder::~OutputFolder() {
+    if (lock_fd_ >= 0) {
+        ::unlink((folder_ / kOutputLockFile).c_str());  // while still holding it: see lock()
+        ::close(lock_fd_);
+    }
+    remove_created();
+}
+
+void OutputFolder::remove_created() {
+    std::error_code ignored;
+    for (const fs::path& level : created_) fs::remove(level, ignored);  // only if empty
+}
+
+void OutputFolder::lock() {
+    const fs::path file = folder_ / kOutputLockFile;
+    for (int attempt = 0; attempt < 100; ++attempt) {
+        const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (fd < 0)
+            throw OutputError("cannot create the lock file '" + file.string() + "': " + std::strerror(errno));
+        if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+            const int error = errno;
+            std::string holder;
+            if (error == EWOULDBLOCK) {
+                char text[32] = {};
+                if (::pread(fd, text, sizeof text - 1, 0) > 0) holder = std::string(" (process ") + text + ")";
+            }
+            ::close(fd);
+            if (error == EWOULDBLOCK)
+                throw OutputError("output folder '" + folder_.string() + "' is in use by another holoflow run" +
+                                  holder + "; wait for it or choose another folder");
+            if (error == ENOLCK || error == EOPNOTSUPP) return;  // a file system without locks: go on unlocked
+            throw OutputError("cannot lock '" + file.string() + "': " + std::strerror(error));
+        }
+        // The run before us removes the file while it still holds the lock: if we opened the
+        // file it removed, our lock guards nothing, so open the one now there.
+        struct stat held {}, named {};
+        if (::fstat(fd, &held) == 0 && ::stat(file.c_str(), &named) == 0 && held.st_dev == named.st_dev &&
+            held.st_ino == named.st_ino) {
+            const std::string pid = std::to_string(::getpid());
+            if (::ftruncate(fd, 0) != 0 || ::pwrite(fd, pid.data(), pid.size(), 0) < 0) {
+                // The pid is only for the message a second run prints.
+            }
+            lock_fd_ = fd;
+            return;
+        }
+        ::close(fd);
+    }
+    throw OutputError("cannot lock '" + file.string() + "': it keeps being replaced");
 }
 
 void write_file_atomic(const std::filesystem::path& path, const std::string& content) {

@@ -893,13 +893,14 @@ void write_segmentation_folder(const std::filesystem::path& folder, std::span<co
     prepare_output_folder(folder);
     remove_stale_temporaries(folder, kSegmentationFiles);
     const SegmentationPicture picture = segmentation_picture(result);
-    write_file_atomic(folder / "segments.ply", [&](std::ostream& out) { write_segments_ply(out, picture); });
-    write_file_atomic(folder / "patches.obj", [&](std::ostream& out) { write_patches_obj(out, picture); });
-    write_file_atomic(folder / "trajectories.obj",
-                      [&](std::ostream& out) { write_trajectories_obj(out, picture); });
-    write_file_atomic(folder / "domains.svg", [&](std::ostream& out) { write_domains_svg(out, picture); });
-    write_file_atomic(folder / "complex.json", json_text(complex_report(result), 1) + "\n");
-    write_file_atomic(folder / "segmentation.json", json_text(report) + "\n");
+    FileSet files;  // in kSegmentationFiles order: segmentation.json marks a whole set
+    files.add(folder / "segments.ply", [&](std::ostream& out) { write_segments_ply(out, picture); });
+    files.add(folder / "patches.obj", [&](std::ostream& out) { write_patches_obj(out, picture); });
+    files.add(folder / "trajectories.obj", [&](std::ostream& out) { write_trajectories_obj(out, picture); });
+    files.add(folder / "domains.svg", [&](std::ostream& out) { write_domains_svg(out, picture); });
+    files.add(folder / "complex.json", json_text(complex_report(result), 1) + "\n");
+    files.add(folder / "segmentation.json", json_text(report) + "\n");
+    files.commit();
 }
 
 SegmentationPicture segmentation_picture(const SegmentationResult& r) {

@@ -50,6 +50,32 @@ TEST(ExpandInputs, FilesFoldersAndLists) {
     EXPECT_THROW(expand_inputs({bad_list}), InvalidInput);
 }
 
+// One file in several spellings, or through a link, is one model; a list must be text.
+TEST(ExpandInputs, OneFileIsOneModelAndListsAreText) {
+    const TempDir dir;
+    const std::string a = dir.write("a.off", "x");
+    fs::create_symlink("a.off", dir.path() / "link.off");
+    const std::string list = dir.write("list.txt", "a.off\n./a.off\n" + fs::absolute(a).string() + "\n");
+    const std::vector<std::string> paths =
+        expand_inputs({a, (dir.path() / "." / "a.off").string(), (dir.path() / "link.off").string(), list});
+    EXPECT_EQ(paths, std::vector<std::string>{a});
+
+    const auto refusal = [&](const std::string& name, const std::string& bytes) {
+        try {
+            expand_inputs({dir.write(name, bytes)});
+        } catch (const InvalidInput& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    EXPECT_NE(refusal("program", std::string("\x7f" "ELF\x02\x01\0\0a.off\n", 12)).find("binary data"),
+              std::string::npos);
+    EXPECT_NE(refusal("mesh", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").find("looks like a mesh file"),
+              std::string::npos);
+    EXPECT_NE(refusal("mesh.txt", "\xEF\xBB\xBFply\nformat ascii 1.0\n").find("looks like a mesh file"),
+              std::string::npos);
+}
+
 TEST(MakeTasks, UniqueFolderNamesInInputOrder) {
     const std::vector<ModelTask> tasks = make_tasks({"x/bull.off", "y/bull.obj", "z/cow.off", "w/bull.ply"}, "out");
     ASSERT_EQ(tasks.size(), 4u);
@@ -61,6 +87,14 @@ TEST(MakeTasks, UniqueFolderNamesInInputOrder) {
         EXPECT_EQ(tasks[i].id, i);
         EXPECT_EQ(tasks[i].out_dir, fs::path("out") / tasks[i].name);
     }
+    // A folder name must fit in 255 bytes with its suffix: long stems are cut between characters.
+    std::string long_stem;
+    for (int i = 0; i < 125; ++i) long_stem += "\xC3\xA9";  // 250 bytes of e-acute
+    const std::vector<ModelTask> odd = make_tasks({"x/" + long_stem + ".off", "y/" + long_stem + ".off",
+                                                   "z/.holoflow.lock.off"}, "out");
+    EXPECT_EQ(odd[0].name, long_stem.substr(0, 200));
+    EXPECT_EQ(odd[1].name, long_stem.substr(0, 200) + "~2");
+    EXPECT_EQ(odd[2].name, ".holoflow.lock~2") << "the output folder's lock file";
 }
 
 TEST(ModelResult, RoundTripsAndChecksSettings) {
@@ -238,8 +272,8 @@ TEST(BatchCommand, ModelsOverTheirMemoryShareAreComputedAgainAlone) {
     }
     const fs::path inputs = dir.path() / "in";
     fs::create_directories(inputs);
-    fs::create_symlink(anchor, inputs / "a.off");
-    fs::create_symlink(anchor, inputs / "b.off");
+    fs::copy_file(anchor, inputs / "a.off");  // two files: links to one would be one model
+    fs::copy_file(anchor, inputs / "b.off");
     for (const char* threads : {"2", "1"}) {
         const fs::path out = dir.path() / (std::string("batch") + threads);
         const test::CommandResult r = run_cli("batch '" + inputs.string() + "' -o '" + out.string() + "' --threads " +
@@ -305,6 +339,12 @@ TEST(BatchCommand, RefusesMissingInputsAndUnwritableOutput) {
                                                 (dir.path() / "out").string() + "'");
     EXPECT_EQ(missing.status, kExitInvalidInput);
     EXPECT_NE(missing.err.find("does not exist"), std::string::npos);
+    fs::create_directories(dir.path() / "empty");
+    const test::CommandResult nothing = run_cli("batch '" + (dir.path() / "empty").string() + "' -o '" +
+                                                (dir.path() / "out" / "deeper").string() + "'");
+    EXPECT_EQ(nothing.status, kExitInvalidInput);
+    EXPECT_NE(nothing.err.find("name no mesh files"), std::string::npos) << nothing.err;
+    EXPECT_FALSE(fs::exists(dir.path() / "out")) << "a refused batch leaves no empty output folder";
     const std::string file = dir.write("file", "x");
     const test::CommandResult unwritable = run_cli("batch '" + corpus("eight.off") + "' -o '" + file + "/sub'");
     EXPECT_EQ(unwritable.status, kExitOutputError) << unwritable.err;

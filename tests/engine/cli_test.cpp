@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 
 #include "holoflow/engine/mesh_error.h"
+#include "holoflow/engine/output.h"
 #include "holoflow/engine/status.h"
 #include "support/test_support.h"
 
@@ -194,6 +195,29 @@ TEST(Cli, MissingFileAndDirectory) {
     std::filesystem::create_directories(dir.path() / "folder.off");
     const auto folder = test::run_cli("info '" + (dir.path() / "folder.off").string() + "'");
     EXPECT_EQ(folder.status, engine::exit_status(MeshErrorKind::Unreadable)) << folder.err;
+}
+
+// A folder another run writes into is refused before any work; a run that fails before writing
+// leaves no folder of its own making.
+TEST(Cli, OutputFoldersInUseOrLeftEmpty) {
+    test::TempDir dir;
+    const std::filesystem::path out = dir.path() / "out";
+    const std::string mesh = test::corpus("eight.off");
+    {
+        const engine::OutputFolder held(out);
+        for (const std::string command : {"segment", "conformal", "batch"}) {
+            const auto r = test::run_cli(command + " '" + mesh + "' -o '" + out.string() + "'");
+            EXPECT_EQ(r.status, engine::kExitOutputError) << command;
+            EXPECT_NE(r.err.find("is in use by another holoflow run"), std::string::npos) << r.err;
+        }
+    }
+    EXPECT_FALSE(std::filesystem::exists(out)) << "nothing written into the held folder, which was made for it";
+    for (const std::string command : {"segment", "conformal"}) {
+        const auto r = test::run_cli(command + " '" + (dir.path() / "none.off").string() + "' -o '" +
+                                     (dir.path() / "new" / "out").string() + "'");
+        EXPECT_EQ(r.status, engine::exit_status(MeshErrorKind::FileNotFound)) << command << r.err;
+        EXPECT_FALSE(std::filesystem::exists(dir.path() / "new")) << command;
+    }
 }
 
 TEST(Cli, ConformalWritesItsFilesAndJson) {

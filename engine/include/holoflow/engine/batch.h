@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "holoflow/engine/output.h"
 #include "holoflow/engine/stage_clock.h"
 #include "holoflow/engine/status.h"
 
@@ -37,14 +38,15 @@ struct ModelOutcome {
 //! \brief Mesh files named by command-line inputs, in order: a mesh file (.off .obj .ply .stl)
 //! as is; a folder: its mesh files, recursively, sorted by path; any other file: a list with one
 //! path per line (blank lines and lines starting with # skipped; relative paths are relative to
-//! the list's folder). A path given twice is kept once (its first place). Folders are searched
+//! the list's folder; binary files and meshes under other names are refused). A file named
+//! twice, in any spelling or through a symbolic link, is kept once (its first place). Folders are searched
 //! without the model folders of `out_root` (a batch whose output lies among its inputs).
 //! \throw InvalidInput naming an input that does not exist or a list line that names nothing.
 std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs,
                                        const std::filesystem::path& out_root = {});
 
-//! Tasks for the paths, each writing into out_root/<name>: the file's stem, made unique in
-//! input order by a `~2`, `~3`, ... suffix.
+//! Tasks for the paths, each writing into out_root/<name>: the file's stem (its first 200 bytes),
+//! made unique in input order by a `~2`, `~3`, ... suffix.
 std::vector<ModelTask> make_tasks(const std::vector<std::string>& paths, const std::filesystem::path& out_root);
 
 //! The summary object of one model (keys in README "holoflow batch").

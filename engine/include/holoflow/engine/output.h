@@ -24,8 +24,34 @@ void write_file_atomic(const std::filesystem::path& path,
                        const std::function<void(std::ostream&)>& write);
 void write_file_atomic(const std::filesystem::path& path, const std::string& content);
 
+//! \brief Files that stand together, written as one set. Each file is streamed to a temporary
+//! name when added; commit() renames them into place in order, the last one (the set's marker)
+//! after removing its old copy first. So a run that is killed or fails leaves either the earlier
+//! set whole, or new files without their marker, never a marker over a mix. Temporaries of a set
+//! destroyed before commit() are removed.
+class FileSet {
+  public:
+    FileSet() = default;
+    FileSet(const FileSet&) = delete;
+    FileSet& operator=(const FileSet&) = delete;
+    ~FileSet();
+
+    //! \throw OutputError (the temporaries written so far are removed with the set).
+    void add(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
+    void add(const std::filesystem::path& path, const std::string& content);
+    //! \throw OutputError if a rename fails.
+    void commit();
+
+  private:
+    struct Staged {
+        std::filesystem::path temporary, path;
+    };
+    std::vector<Staged> staged_;
+};
+
 //! Removes the temporaries write_file_atomic leaves in `folder` when a run is killed while
-//! writing one of `names` (only those: the folder may hold the user's own files).
+//! writing one of `names` (only those: the folder may hold the user's own files), except those
+//! of processes still running.
 void remove_stale_temporaries(const std::filesystem::path& folder, const std::vector<std::string>& names);
 
 //! JSON text of `j` (`indent` as nlohmann::json::dump). Strings that are not valid UTF-8 (a file
@@ -34,6 +60,33 @@ std::string json_text(const nlohmann::json& j, int indent = 2);
 
 //! Creates the folder (and parents) if needed and checks it is writable. \throw OutputError.
 void prepare_output_folder(const std::filesystem::path& folder);
+
+//! \brief An output folder held by one run. Created (with missing parents) and checked
+//! writable, then locked: another holoflow run that asks for the same folder is refused while
+//! this one lives (an advisory lock on its `.holoflow.lock`, which the kernel drops when the
+//! process ends, killed or not; the destructor removes the file). Folders it created are removed
+//! again by the destructor if still empty (a run that failed before writing anything).
+class OutputFolder {
+  public:
+    //! \throw OutputError (cannot create, not writable, or in use by another run).
+    explicit OutputFolder(std::filesystem::path folder);
+    OutputFolder(const OutputFolder&) = delete;
+    OutputFolder& operator=(const OutputFolder&) = delete;
+    ~OutputFolder();
+
+    const std::filesystem::path& path() const { return folder_; }
+
+  private:
+    void lock();
+    void remove_created();
+
+    std::filesystem::path folder_;
+    std::vector<std::filesystem::path> created_;  //!< deepest first
+    int lock_fd_ = -1;
+};
+
+//! The lock file an OutputFolder holds (not a name a model folder may take).
+inline constexpr const char* kOutputLockFile = ".holoflow.lock";
 
 //! A mesh as OFF, coordinates as the shortest decimals that read back to the same doubles.
 void write_off(std::ostream& out, const MeshView& mesh);

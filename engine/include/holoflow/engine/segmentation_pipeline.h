@@ -146,7 +146,8 @@ inline const std::vector<std::string> kSegmentationFiles = {"segments.ply", "pat
 
 //! Writes segments.ply, patches.obj, trajectories.obj, domains.svg, complex.json and, last,
 //! `report` as segmentation.json into `folder` (created if needed; temporaries a killed run left
-//! of these files are removed first), each atomically. \throw OutputError.
+//! of these files are removed first), as one FileSet: the folder never holds segmentation.json
+//! over files of another run. \throw OutputError.
 void write_segmentation_folder(const std::filesystem::path& folder, const SegmentationResult& result,
                                const nlohmann::json& report);
 
