@@ -6,6 +6,7 @@
 #include <limits>
 #include <numeric>
 #include <span>
+#include <tuple>
 #include <sstream>
 #include <string>
 
@@ -245,6 +246,131 @@ void repair_zero_area(const PolygonSoup& soup, std::vector<std::array<std::int64
     }
 }
 
+// Boundary edges that lie exactly on another boundary edge: a seam the file left open (a soup of
+// separate triangles, vertices duplicated along texture seams or between CAD patches). Where
+// exactly two boundary edges, running opposite ways, join the same two positions, their ends are
+// merged (into the smaller vertex number), which closes the seam. Zips whose merged vertices would
+// put a third face on an edge or two corners of a triangle together are left open, as are seams
+// where more than two sheets meet. Returns the vertices merged away; counts the edges zipped.
+std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64_t, 3>>& triangles,
+                      std::size_t& zipped_edges) {
+    const auto n_v = static_cast<Index>(soup.n_vertices());
+    // Vertices by position; `place[v]`: the smallest vertex at v's position.
+    std::vector<Index> by_position(n_v), place(n_v);
+    std::iota(by_position.begin(), by_position.end(), 0);
+    const auto position = [&](Index v) {
+        return std::array<double, 3>{soup.positions[3 * v], soup.positions[3 * v + 1], soup.positions[3 * v + 2]};
+    };
+    std::stable_sort(by_position.begin(), by_position.end(),
+                     [&](Index a, Index b) { return position(a) < position(b); });
+    bool shared = false;
+    for (std::size_t i = 0; i < by_position.size(); ++i) {
+        const bool same = i > 0 && position(by_position[i]) == position(by_position[i - 1]);
+        place[by_position[i]] = same ? place[by_position[i - 1]] : by_position[i];
+        shared = shared || same;
+    }
+    if (!shared) return 0;
+
+    // Undirected edges with their faces' directed halfedges; boundary edges have one.
+    struct Edge {
+        Index a, b;  // a < b
+        Index halfedge;
+        bool operator<(const Edge& o) const { return std::tie(a, b, halfedge) < std::tie(o.a, o.b, o.halfedge); }
+    };
+    const auto edges_of = [&](const std::vector<Index>& merged) {
+        std::vector<Edge> edges;
+        edges.reserve(3 * triangles.size());
+        for (std::size_t t = 0; t < triangles.size(); ++t)
+            for (int k = 0; k < 3; ++k) {
+                const Index u = merged[triangles[t][k]], w = merged[triangles[t][(k + 1) % 3]];
+                edges.push_back({std::min(u, w), std::max(u, w), static_cast<Index>(3 * t + k)});
+            }
+        std::sort(edges.begin(), edges.end());
+        return edges;
+    };
+    std::vector<Index> identity(n_v);
+    std::iota(identity.begin(), identity.end(), 0);
+    const std::vector<Edge> edges = edges_of(identity);
+    std::vector<char> was_boundary(3 * triangles.size(), 0);
+    struct Seam {
+        Index tail_a, head_a, tail_b, head_b;  // two boundary halfedges' ends, running opposite ways
+    };
+    std::vector<std::pair<std::array<Index, 2>, Seam>> candidates;  // keyed by the two positions
+    {
+        std::vector<std::pair<std::array<Index, 2>, Index>> boundary;  // (positions, halfedge)
+        for (std::size_t i = 0; i < edges.size(); ++i) {
+            const bool alone = (i == 0 || edges[i - 1].a != edges[i].a || edges[i - 1].b != edges[i].b) &&
+                               (i + 1 == edges.size() || edges[i + 1].a != edges[i].a || edges[i + 1].b != edges[i].b);
+            if (!alone) continue;
+            was_boundary[edges[i].halfedge] = 1;
+            const Index pa = place[edges[i].a], pb = place[edges[i].b];
+            if (pa != pb) boundary.push_back({{std::min(pa, pb), std::max(pa, pb)}, edges[i].halfedge});
+        }
+        std::sort(boundary.begin(), boundary.end());
+        const auto tail = [&](Index h) { return static_cast<Index>(triangles[h / 3][h % 3]); };
+        const auto head = [&](Index h) { return static_cast<Index>(triangles[h / 3][(h % 3 + 1) % 3]); };
+        for (std::size_t i = 0; i < boundary.size();) {
+            std::size_t j = i;
+            while (j < boundary.size() && boundary[j].first == boundary[i].first) ++j;
+            if (j - i == 2) {
+                const Index h = boundary[i].second, k = boundary[i + 1].second;
+                if (place[tail(h)] == place[head(k)])  // opposite ways: one surface, one orientation
+                    candidates.push_back({boundary[i].first, {tail(h), head(h), tail(k), head(k)}});
+            }
+            i = j;
+        }
+    }
+    if (candidates.empty()) return 0;
+
+    // Zip all, then leave out the seams at positions where the result is not a manifold
+    // triangle set, until none is left.
+    std::vector<char> excluded(n_v, 0);  // by position
+    for (int round = 0; round < 8; ++round) {
+        kernels::UnionFind merge(n_v);
+        std::size_t count = 0;
+        for (const auto& [key, seam] : candidates) {
+            if (excluded[key[0]] || excluded[key[1]]) continue;
+            merge.unite(seam.tail_a, seam.head_b);
+            merge.unite(seam.head_a, seam.tail_b);
+            ++count;
+        }
+        if (count == 0) return 0;
+        std::vector<Index> root(n_v);
+        for (Index v = 0; v < n_v; ++v) root[v] = merge.find(v);
+        bool bad = false;
+        for (const auto& t : triangles) {
+            const Index a = root[t[0]], b = root[t[1]], c = root[t[2]];
+            if (a == b || b == c || a == c)
+                for (const std::int64_t v : t) excluded[place[v]] = 1, bad = true;
+        }
+        // A third face on an edge, or two boundary edges brought together running the same way
+        // (the orientation would have to turn a sheet over).
+        const std::vector<Edge> merged = edges_of(root);
+        const auto tail = [&](Index h) { return root[triangles[h / 3][h % 3]]; };
+        const auto exclude_faces = [&](std::initializer_list<Index> halfedges) {
+            for (const Index h : halfedges)
+                for (int k = 0; k < 3; ++k) excluded[place[triangles[h / 3][k]]] = 1;
+            bad = true;
+        };
+        for (std::size_t i = 0; i + 1 < merged.size(); ++i) {
+            const Edge &e = merged[i], &f = merged[i + 1];
+            if (e.a != f.a || e.b != f.b) continue;
+            if (i + 2 < merged.size() && merged[i + 2].a == e.a && merged[i + 2].b == e.b)
+                exclude_faces({e.halfedge, f.halfedge, merged[i + 2].halfedge});
+            else if ((was_boundary[e.halfedge] || was_boundary[f.halfedge]) && tail(e.halfedge) == tail(f.halfedge))
+                exclude_faces({e.halfedge, f.halfedge});
+        }
+        if (bad) continue;
+        for (auto& t : triangles)
+            for (std::int64_t& v : t) v = root[v];
+        zipped_edges = count;
+        std::size_t gone = 0;
+        for (Index v = 0; v < n_v; ++v) gone += root[v] != v;
+        return gone;
+    }
+    return 0;
+}
+
 std::vector<Index> pair_edges(const TriangleMatrix& F, Index n_vertices) {
     const HalfedgeGroups groups = group_halfedges_by_vertex_pair(F, n_vertices);
     std::vector<Index> mate(3 * static_cast<std::size_t>(F.rows()), -1);
@@ -437,6 +563,8 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
                      " triangles");
     }
 
+    if (options.seams == SeamPolicy::Zip) report.zipped_vertices = zip_seams(soup, triangles, report.zipped_edges);
+
     {   // duplicated faces: same vertex set, in any order or winding; the first one stays
         std::vector<std::pair<std::array<std::int64_t, 3>, std::size_t>> keys(triangles.size());
         for (std::size_t t = 0; t < triangles.size(); ++t) {
@@ -486,7 +614,8 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
     for (std::size_t t = 0; t < triangles.size(); ++t)
         for (int k = 0; k < 3; ++k) F(static_cast<Eigen::Index>(t), k) = static_cast<Index>(triangles[t][k]);
     triangles = {};
-    report.unreferenced_vertices = compact_vertices(V, F) - report.collapsed_edges;  // collapses free one each
+    // Collapses and zips free one vertex each.
+    report.unreferenced_vertices = compact_vertices(V, F) - report.collapsed_edges - report.zipped_vertices;
 
     const std::vector<Index> mate = pair_edges(F, static_cast<Index>(V.rows()));
     const Orientation o = orient(F, mate);

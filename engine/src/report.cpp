@@ -18,6 +18,8 @@ nlohmann::json info_report(const std::string& path, const LoadedMesh& loaded,
         {"collapsed_faces", r.collapsed_faces},
         {"flipped_edges", r.flipped_edges},
         {"duplicate_faces", r.duplicate_faces},
+        {"zipped_edges", r.zipped_edges},
+        {"zipped_vertices", r.zipped_vertices},
         {"dropped_components", r.dropped_components},
         {"dropped_faces", r.dropped_faces},
     };

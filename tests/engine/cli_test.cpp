@@ -136,6 +136,29 @@ TEST(Cli, DuplicateFacesAreDroppedUnlessRefused) {
     EXPECT_EQ(refused.err.rfind("error: duplicate_face: ", 0), 0u) << refused.err;
 }
 
+// A tetrahedron written as a soup (each face its own three corners) is one closed surface unless
+// its seams are kept.
+TEST(Cli, SeamsAreZippedUnlessKept) {
+    test::TempDir dir;
+    const char* corner[4] = {"0 0 0", "1 0 0", "0 1 0", "0 0 1"};
+    const int faces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+    std::string off = "OFF\n12 4 0\n", indices;
+    for (int f = 0; f < 4; ++f) {
+        for (int k = 0; k < 3; ++k) off += std::string(corner[faces[f][k]]) + "\n";
+        indices += "3 " + std::to_string(3 * f) + " " + std::to_string(3 * f + 1) + " " + std::to_string(3 * f + 2) + "\n";
+    }
+    const std::string path = dir.write("soup.off", off + indices);
+    const auto zipped = test::run_cli("info --json '" + path + "'");
+    ASSERT_EQ(zipped.status, 0) << zipped.err;
+    const auto z = nlohmann::json::parse(zipped.out);
+    EXPECT_EQ(z["repairs"]["zipped_edges"], 6);
+    EXPECT_EQ(z["repairs"]["zipped_vertices"], 8);
+    EXPECT_EQ(z["closed"], true);
+    const auto kept = test::run_cli("info --json --seams keep '" + path + "'");
+    ASSERT_EQ(kept.status, 0) << kept.err;
+    EXPECT_EQ(nlohmann::json::parse(kept.out)["components"], 4);
+}
+
 // Option values that parsed before and meant nothing: a negative memory limit (wrapped to 2^64 - 1),
 // a NaN time limit (no limit), a tip past the input's vertices (checked on the refined mesh).
 TEST(Cli, OptionValuesOutOfTheirDomainAreRefused) {

@@ -486,7 +486,7 @@ TEST(HostileInput, NeedlesAndCapsWithMicroDegreeAnglesLoad) {
     EXPECT_NEAR(min_angle_degrees(*welded.mesh.mesh), apex_angle, kAngleTol);  // t to 9 digits
 }
 
-TEST(HostileInput, CoincidentVerticesInDifferentFacesAreDistinct) {
+TEST(HostileInput, CoincidentVerticesAreDistinctUnlessOnASeam) {
     // Two tetrahedra touching at one point through two different vertex indices (3 and 7).
     const std::string off =
         "OFF\n8 8 0\n0 0 0\n1 0 0\n0 1 0\n1 1 1\n2 2 2\n3 2 2\n2 3 2\n1 1 1\n"
@@ -499,11 +499,20 @@ TEST(HostileInput, CoincidentVerticesInDifferentFacesAreDistinct) {
     EXPECT_EQ(o.topology.euler_characteristic, 4);
     EXPECT_EQ(o.mesh.mesh->V.row(3), o.mesh.mesh->V.row(7));
     // A square annulus cut open along one radial edge whose two sides (0, 4 and 8, 9) lie at the
-    // same positions: not glued, so it is a strip (a disk) and not an annulus.
-    const Outcome strip = run("OFF\n10 4 0\n-2 -2 0\n2 -2 0\n2 2 0\n-2 2 0\n-1 -1 0\n1 -1 0\n"
-                              "1 1 0\n-1 1 0\n-2 -2 0\n-1 -1 0\n"
-                              "4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 8 9 7\n",
-                              MeshFormat::Off);
+    // same positions: a seam, zipped into the annulus; kept open on request, a strip (a disk).
+    const std::string cut_annulus = "OFF\n10 4 0\n-2 -2 0\n2 -2 0\n2 2 0\n-2 2 0\n-1 -1 0\n1 -1 0\n"
+                                    "1 1 0\n-1 1 0\n-2 -2 0\n-1 -1 0\n"
+                                    "4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 8 9 7\n";
+    const Outcome annulus = run(cut_annulus, MeshFormat::Off);
+    ASSERT_TRUE(annulus.loaded) << annulus.detail;
+    EXPECT_EQ(annulus.topology.vertices, 8);
+    EXPECT_EQ(annulus.topology.boundary_loops, 2);
+    EXPECT_EQ(annulus.topology.euler_characteristic, 0);
+    EXPECT_EQ(annulus.mesh.report.zipped_edges, 1u);
+    EXPECT_EQ(annulus.mesh.report.zipped_vertices, 2u);
+    LoadOptions keep;
+    keep.seams = SeamPolicy::Keep;
+    const Outcome strip = run(cut_annulus, MeshFormat::Off, keep);
     ASSERT_TRUE(strip.loaded) << strip.detail;
     EXPECT_EQ(strip.topology.vertices, 10);
     EXPECT_EQ(strip.topology.components, 1);

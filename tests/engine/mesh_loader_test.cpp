@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/topology.h"
 #include "support/test_support.h"
 
@@ -284,6 +285,46 @@ TEST(MeshLoader, PinchedVerticesAreSplitIntoFans) {
     }
     // A manifold mesh is left as it is.
     EXPECT_EQ(mesh_from_soup(octahedron()).report.split_vertices, 0u);
+}
+
+// A file whose faces do not share their vertices along seams (here: every triangle its own three
+// corners, a soup) is the surface it shows: seams are zipped unless kept.
+TEST(MeshLoader, SeamsAreZippedUnlessKept) {
+    const MeshView pretzel = shapes::genus_surface(2, 12);
+    PolygonSoup soup;
+    for (Index f = 0; f < pretzel.n_faces(); ++f) {
+        for (int k = 0; k < 3; ++k) {
+            for (int d = 0; d < 3; ++d) soup.positions.push_back(pretzel.V(pretzel.F(f, k), d));
+            soup.indices.push_back(3 * f + k);
+        }
+        soup.offsets.push_back(soup.indices.size());
+    }
+    const LoadedMesh zipped = mesh_from_soup(soup);
+    const kernels::Topology t = kernels::compute_topology(*zipped.mesh), expected = kernels::compute_topology(pretzel);
+    EXPECT_EQ(t.genus, 2);
+    EXPECT_EQ(t.boundary_loops, 0);
+    EXPECT_EQ(std::tie(t.vertices, t.edges, t.faces), std::tie(expected.vertices, expected.edges, expected.faces));
+    EXPECT_EQ(zipped.report.zipped_edges, static_cast<std::size_t>(expected.edges));
+    EXPECT_EQ(zipped.report.zipped_vertices, static_cast<std::size_t>(3 * pretzel.n_faces() - pretzel.n_vertices()));
+    EXPECT_EQ(zipped.report.unreferenced_vertices, 0u);
+    LoadOptions keep;
+    keep.seams = SeamPolicy::Keep;
+    EXPECT_EQ(kernels::compute_topology(*mesh_from_soup(soup, keep).mesh).components, pretzel.n_faces());
+
+    // Three sheets on one spine (positions 0 and 1): which two belong together is not known, so
+    // none is zipped; two triangles whose common positions run the same way would need one turned
+    // over: left open too.
+    const PolygonSoup book = soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1},
+                                     {{0, 1, 2}, {4, 3, 5}, {6, 7, 8}});
+    const LoadedMesh pages = mesh_from_soup(book);
+    EXPECT_EQ(pages.report.zipped_edges, 0u);
+    EXPECT_EQ(kernels::compute_topology(*pages.mesh).components, 3);
+    const PolygonSoup same_way = soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 0}, {{0, 1, 2}, {3, 4, 5}});
+    EXPECT_EQ(mesh_from_soup(same_way).report.zipped_edges, 0u);
+    const PolygonSoup opposite = soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 0}, {{0, 1, 2}, {4, 3, 5}});
+    const LoadedMesh joined = mesh_from_soup(opposite);
+    EXPECT_EQ(joined.report.zipped_edges, 1u);
+    EXPECT_EQ(kernels::compute_topology(*joined.mesh).vertices, 4);
 }
 
 TEST(MeshLoader, MoebiusBandIsNonOrientable) {

@@ -91,7 +91,8 @@ inline int read_load_topology(const std::uint8_t* data, std::size_t size, engine
     const MeshView& mesh = *all.mesh;
     const engine::LoadReport& r = all.report;
     HOLOFLOW_FUZZ_CHECK(r.file_vertices == soup.n_vertices() && r.file_polygons == soup.n_polygons());
-    HOLOFLOW_FUZZ_CHECK(r.unreferenced_vertices + r.collapsed_edges + static_cast<std::size_t>(mesh.n_vertices()) ==
+    HOLOFLOW_FUZZ_CHECK(r.unreferenced_vertices + r.collapsed_edges + r.zipped_vertices +
+                            static_cast<std::size_t>(mesh.n_vertices()) ==
                         soup.n_vertices() + r.split_vertices);
     {   // Refusing pinched vertices refuses exactly the soups that needed a split.
         engine::LoadedMesh strict;

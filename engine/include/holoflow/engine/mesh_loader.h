@@ -25,6 +25,11 @@ enum class ZeroAreaPolicy { Repair, Refuse };
 //! body written twice, a sheet exported two-sided): dropped, or a duplicate_face refusal.
 enum class DuplicateFacePolicy { Drop, Refuse };
 
+//! Two boundary edges on the same two positions, running opposite ways (a triangle soup, vertices
+//! duplicated along texture seams or CAD patch borders): zipped into one edge, or kept as two
+//! boundaries.
+enum class SeamPolicy { Zip, Keep };
+
 struct LoadOptions {
     ComponentPolicy components = ComponentPolicy::All;
     std::size_t max_faces = 0;  //!< 0: no limit beyond 32-bit indices
@@ -32,6 +37,7 @@ struct LoadOptions {
     PinchedVertexPolicy pinched_vertices = PinchedVertexPolicy::Split;
     ZeroAreaPolicy zero_area_faces = ZeroAreaPolicy::Repair;
     DuplicateFacePolicy duplicate_faces = DuplicateFacePolicy::Drop;
+    SeamPolicy seams = SeamPolicy::Zip;
 };
 
 //! What the loader changed on the way from file to MeshView (all counts; 0 when untouched).
@@ -48,6 +54,8 @@ struct LoadReport {
     std::size_t collapsed_faces = 0;        //!< the faces on those edges, gone with them
     std::size_t flipped_edges = 0;          //!< zero-area repair: edges with a corner on them, flipped
     std::size_t duplicate_faces = 0;        //!< on the vertices of an earlier face, dropped
+    std::size_t zipped_edges = 0;           //!< boundary edge pairs at the same positions, joined
+    std::size_t zipped_vertices = 0;        //!< their ends merged into another vertex
     std::size_t components = 0;             //!< in the file
     std::size_t dropped_components = 0;     //!< with ComponentPolicy::Largest
     std::size_t dropped_faces = 0;          //!< faces of the dropped components
