@@ -141,7 +141,11 @@ int run_conformal(const MeshArgs& mesh_args, const std::string& out_dir, const s
                   bool json) {
     const engine::OutputFolder output(out_dir);  // fail before the work, not after
     const std::filesystem::path& folder = output.path();
-    engine::remove_stale_temporaries(folder, {"uv.obj", "forms", "conformal.json"});
+    const std::vector<std::string> names = {"uv.obj", "forms", "conformal.json"};
+    std::vector<std::filesystem::path> outputs;
+    for (const std::string& name : names) outputs.push_back(folder / name);
+    engine::refuse_overwriting_inputs(outputs, {mesh_args.path});
+    engine::remove_stale_temporaries(folder, names);
     const engine::LoadedMesh loaded = engine::load_mesh(mesh_args.path, mesh_args.options());
     engine::ConformalOptions options;
     options.laplacian = laplacian == "extrinsic" ? engine::LaplacianKind::Extrinsic
@@ -252,6 +256,9 @@ struct SegmentArgs {
 int run_segment(const SegmentArgs& args) {
     const engine::OutputFolder output(args.out_dir);  // fail before the work, not after
     const std::filesystem::path& folder = output.path();
+    std::vector<std::filesystem::path> outputs;
+    for (const std::string& name : engine::kSegmentationFiles) outputs.push_back(folder / name);
+    engine::refuse_overwriting_inputs(outputs, {args.path});
     graphs::SegmentationGraphOptions options = args.settings.graph_options();
     options.segment.tips = args.tips;
     options.max_in_flight = 1;
@@ -301,14 +308,18 @@ int run_batch(const BatchArgs& args) {
     options.settings = args.settings.fingerprint();
     options.force = args.force;
     options.serial = args.serial;
-    if (!args.dot.empty()) {
-        // The diagram is written first: it must not replace an input (a mesh or a list).
+    {   // No output may replace an input (a mesh or a list): the diagram, the summaries, a model's files.
         std::vector<std::string> inputs = args.inputs;
         for (const engine::ModelTask& task : tasks) inputs.push_back(task.path);
-        std::error_code ec;
-        for (const std::string& input : inputs)
-            if (std::filesystem::equivalent(args.dot, input, ec))
-                throw InvalidInput("--dot '" + args.dot + "' is the input '" + input + "': it would be overwritten");
+        std::vector<std::filesystem::path> outputs = {out_root / "summary.json", out_root / "summary.csv"};
+        if (!args.dot.empty()) outputs.push_back(args.dot);
+        for (const engine::ModelTask& task : tasks) {
+            for (const std::string& name : engine::kSegmentationFiles) outputs.push_back(task.out_dir / name);
+            outputs.push_back(task.out_dir / "result.json");
+        }
+        engine::refuse_overwriting_inputs(outputs, inputs);
+    }
+    if (!args.dot.empty()) {
         engine::write_file_atomic(args.dot, [&](std::ostream& out) { graphs::SegmentationGraph(options.graph).to_dot(out); });
     }
 

@@ -6,12 +6,15 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include "holoflow/kernels/errors.h"
 
 namespace holoflow::engine {
 
@@ -194,6 +197,26 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
     write_file_atomic(path, [&](std::ostream& out) {
         out.write(content.data(), static_cast<std::streamsize>(content.size()));
     });
+}
+
+void refuse_overwriting_inputs(const std::vector<fs::path>& outputs, const std::vector<std::string>& inputs) {
+    const auto identity = [](const fs::path& path) {
+        std::error_code ec;
+        const fs::path canonical = fs::weakly_canonical(path, ec);
+        return ec ? fs::absolute(path, ec).lexically_normal() : canonical;
+    };
+    std::map<fs::path, std::string> input_of;
+    for (const std::string& input : inputs) input_of.emplace(identity(input), input);
+    std::map<fs::path, fs::path> folder_identity;  // outputs share few folders: resolve each once
+    for (const fs::path& output : outputs) {
+        auto [folder, added] = folder_identity.try_emplace(output.parent_path());
+        if (added) folder->second = identity(output.parent_path().empty() ? fs::path(".") : output.parent_path());
+        // An output that is a link to an input would be replaced, not written through: only the
+        // folder is resolved.
+        if (const auto it = input_of.find(folder->second / output.filename()); it != input_of.end())
+            throw InvalidInput("the output '" + output.string() + "' is the input '" + it->second +
+                               "': it would be overwritten (choose another output folder)");
+    }
 }
 
 namespace {

@@ -243,6 +243,30 @@ TEST(Cli, OutputFoldersInUseOrLeftEmpty) {
     }
 }
 
+// A mesh named like an output, in the output folder (or a link to one there), is never replaced.
+TEST(Cli, OutputsNeverReplaceInputs) {
+    test::TempDir dir;
+    const std::filesystem::path out = dir.path() / "out";
+    std::filesystem::create_directories(out / "segments");
+    const std::string mesh = test::slurp(test::corpus("eight.off"));
+    const auto refused = [&](const std::string& command, const std::string& input, const std::string& output) {
+        const auto r = test::run_cli(command + " '" + input + "' -o '" + output + "'");
+        EXPECT_EQ(r.status, engine::kExitInvalidInput) << command << " " << input << r.err;
+        EXPECT_NE(r.err.find("it would be overwritten"), std::string::npos) << r.err;
+    };
+    const std::string ply = dir.write("out/segments.ply", "ply\nformat ascii 1.0\n");  // not even read
+    refused("segment", ply, out.string());
+    std::filesystem::create_symlink(ply, dir.path() / "link.ply");
+    refused("segment", (dir.path() / "link.ply").string(), (dir.path() / "out" / ".").string());
+    const std::string obj = dir.write("out/uv.obj", "v 0 0 0\n");
+    refused("conformal", obj, out.string());
+    const std::string nested = dir.write("out/segments/segments.ply", mesh);  // its model folder is out/segments
+    refused("batch", nested, out.string());
+    EXPECT_EQ(test::slurp(ply), "ply\nformat ascii 1.0\n");
+    EXPECT_EQ(test::slurp(obj), "v 0 0 0\n");
+    EXPECT_EQ(test::slurp(nested), mesh);
+}
+
 TEST(Cli, ConformalWritesItsFilesAndJson) {
     test::TempDir dir;
     const std::string out = (dir.path() / "eight").string();

@@ -88,6 +88,12 @@ class OutputFolder {
 //! The lock file an OutputFolder holds (not a name a model folder may take).
 inline constexpr const char* kOutputLockFile = ".holoflow.lock";
 
+//! \brief Refuses a run that would write one of `outputs` over one of `inputs` (the same file by
+//! any spelling or link: a mesh named segments.ply segmented into its own folder).
+//! \throw InvalidInput naming both.
+void refuse_overwriting_inputs(const std::vector<std::filesystem::path>& outputs,
+                               const std::vector<std::string>& inputs);
+
 //! A mesh as OFF, coordinates as the shortest decimals that read back to the same doubles.
 void write_off(std::ostream& out, const MeshView& mesh);
 
