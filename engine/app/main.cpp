@@ -71,7 +71,8 @@ std::size_t default_memory_limit_bytes() { return available_memory_bytes() / 4 *
 // Loading options of every subcommand.
 struct LoadArgs {
     std::string components = "all";
-    std::string pinched_vertices = "split", zero_area_faces = "repair", duplicate_faces = "drop", seams = "zip";
+    std::string pinched_vertices = "split", zero_area_faces = "repair", duplicate_faces = "drop", seams = "zip",
+                non_manifold_edges = "split";
     std::size_t max_faces = 0;
 
     void add_to(CLI::App& command) {
@@ -97,6 +98,11 @@ struct LoadArgs {
                         "two boundary edges on the same two positions (a triangle soup, vertices duplicated "
                         "along seams): zip them into one edge, or keep both as boundary")
             ->check(CLI::IsMember({"zip", "keep"}));
+        command
+            .add_option("--non-manifold-edges", non_manifold_edges,
+                        "an edge shared by more than two faces: keep one pair of faces on it and detach the "
+                        "others, or refuse the mesh")
+            ->check(CLI::IsMember({"split", "refuse"}));
         command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
     }
     engine::LoadOptions options() const {
@@ -109,6 +115,8 @@ struct LoadArgs {
         o.duplicate_faces =
             duplicate_faces == "refuse" ? engine::DuplicateFacePolicy::Refuse : engine::DuplicateFacePolicy::Drop;
         o.seams = seams == "keep" ? engine::SeamPolicy::Keep : engine::SeamPolicy::Zip;
+        o.non_manifold_edges = non_manifold_edges == "refuse" ? engine::NonManifoldEdgePolicy::Refuse
+                                                              : engine::NonManifoldEdgePolicy::Split;
         o.max_faces = max_faces;
         o.max_file_bytes = default_memory_limit_bytes();  // `segment` and `batch`: --max-memory
         return o;
@@ -238,6 +246,7 @@ struct SegmentSettings {
         return {{"mode", mode}, {"laplacian", laplacian}, {"component", load.components},
                 {"pinched_vertices", load.pinched_vertices}, {"zero_area_faces", load.zero_area_faces},
                 {"duplicate_faces", load.duplicate_faces}, {"seams", load.seams},
+                {"non_manifold_edges", load.non_manifold_edges},
                 {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
                 {"fill_holes", fill_holes}, {"max_working_genus", max_working_genus},
                 {"keep_holes_at_failed_fans", keep_holes_at_failed_fans}, {"max_memory_mb", memory_limit_bytes() >> 20},

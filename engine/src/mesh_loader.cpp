@@ -371,23 +371,38 @@ std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64
     return 0;
 }
 
-std::vector<Index> pair_edges(const TriangleMatrix& F, Index n_vertices) {
+// For every halfedge, the other halfedge on the same vertex pair (or -1 on the boundary). Where
+// more than two faces share an edge, they are paired two by two in halfedge order, each with the
+// first later one running the other way (else the next one), an odd one left on the boundary;
+// split_pinched_vertices then gives each pair's fans their own copies of the edge's ends.
+std::vector<Index> pair_edges(const TriangleMatrix& F, Index n_vertices, NonManifoldEdgePolicy policy,
+                              std::size_t& split_edges) {
     const HalfedgeGroups groups = group_halfedges_by_vertex_pair(F, n_vertices);
+    const auto tail = [&](Index h) { return F(h / 3, h % 3); };
     std::vector<Index> mate(3 * static_cast<std::size_t>(F.rows()), -1);
+    std::vector<Index> left;
     for (Index g = 0; g < groups.n_groups(); ++g) {
         const Index begin = groups.group_start[g], size = groups.group_start[g + 1] - begin;
-        const Index h = groups.halfedges[begin];
+        if (size < 2) continue;
         if (size > 2) {
+            const Index h = groups.halfedges[begin];
             const Index a = F(h / 3, h % 3), b = F(h / 3, (h % 3 + 1) % 3);
-            fail(MeshErrorKind::NonManifoldEdge,
-                 "edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
-                     ") has " + std::to_string(size) +
-                     " faces (vertex numbers after dropping unreferenced vertices)");
+            if (policy == NonManifoldEdgePolicy::Refuse)
+                fail(MeshErrorKind::NonManifoldEdge,
+                     "edge (" + std::to_string(std::min(a, b)) + ", " + std::to_string(std::max(a, b)) +
+                         ") has " + std::to_string(size) +
+                         " faces (vertex numbers after dropping unreferenced vertices)");
+            ++split_edges;
         }
-        if (size == 2) {
-            const Index k = groups.halfedges[begin + 1];
-            mate[h] = k;
-            mate[k] = h;
+        left.assign(groups.halfedges.begin() + begin, groups.halfedges.begin() + begin + size);
+        while (left.size() >= 2) {
+            std::size_t partner = 1;
+            while (partner < left.size() && tail(left[partner]) == tail(left[0])) ++partner;
+            if (partner == left.size()) partner = 1;
+            mate[left[0]] = left[partner];
+            mate[left[partner]] = left[0];
+            left.erase(left.begin() + static_cast<std::ptrdiff_t>(partner));
+            left.erase(left.begin());
         }
     }
     return mate;
@@ -617,7 +632,7 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
     // Collapses and zips free one vertex each.
     report.unreferenced_vertices = compact_vertices(V, F) - report.collapsed_edges - report.zipped_vertices;
 
-    const std::vector<Index> mate = pair_edges(F, static_cast<Index>(V.rows()));
+    const std::vector<Index> mate = pair_edges(F, static_cast<Index>(V.rows()), options.non_manifold_edges, report.split_edges);
     const Orientation o = orient(F, mate);
     report.reoriented_faces = o.flipped;
     report.components = static_cast<std::size_t>(o.n_components);

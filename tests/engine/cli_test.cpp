@@ -85,8 +85,10 @@ const BadFile kBadFiles[] = {
     {"range.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", MeshErrorKind::IndexOutOfRange},
     {"repeat.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 1\n", MeshErrorKind::RepeatedVertex},
     {"flat.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n", MeshErrorKind::ZeroAreaFace},
-    {"fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n",
-     MeshErrorKind::NonManifoldEdge},
+    {"moebius.obj",
+     "v 1 0 0\nv 1.2 0 0\nv -0.5 0.9 0.2\nv -0.6 1 -0.2\nv -0.5 -0.9 0\nv -0.6 -1 0\n"
+     "f 1 3 4 2\nf 3 5 6 4\nf 5 2 1 6\n",
+     MeshErrorKind::NonOrientable},
 };
 
 INSTANTIATE_TEST_SUITE_P(Files, CliBadInput, ::testing::ValuesIn(kBadFiles),
@@ -109,6 +111,23 @@ TEST(Cli, PinchedVerticesAreSplitUnlessRefused) {
     EXPECT_EQ(refused.status, engine::exit_status(MeshErrorKind::NonManifoldVertex)) << refused.err;
     EXPECT_EQ(refused.err.rfind("error: non_manifold_vertex: ", 0), 0u) << refused.err;
     EXPECT_TRUE(refused.out.empty());
+}
+
+// A fin (three triangles on one edge): the first two stay joined, the third is detached, unless refused.
+TEST(Cli, NonManifoldEdgesAreSplitUnlessRefused) {
+    test::TempDir dir;
+    const std::string path =
+        dir.write("fin.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n");
+    const auto split = test::run_cli("info --json '" + path + "'");
+    ASSERT_EQ(split.status, 0) << split.err;
+    const auto j = nlohmann::json::parse(split.out);
+    EXPECT_EQ(j["repairs"]["split_edges"], 1);
+    EXPECT_EQ(j["repairs"]["split_vertices"], 2);
+    EXPECT_EQ(j["components"], 2);
+    EXPECT_EQ(j["boundary_loops"], 2);
+    const auto refused = test::run_cli("info --non-manifold-edges refuse '" + path + "'");
+    EXPECT_EQ(refused.status, engine::exit_status(MeshErrorKind::NonManifoldEdge)) << refused.err;
+    EXPECT_EQ(refused.err.rfind("error: non_manifold_edge: ", 0), 0u) << refused.err;
 }
 
 // An STL with its body written twice (welded onto the same vertices): the copies are dropped

@@ -175,9 +175,11 @@ TEST(MeshLoader, EachBadInputHasItsKind) {
               MeshErrorKind::DuplicateFace);
     EXPECT_EQ(kind_of(soup_of({}, {})), MeshErrorKind::EmptyFile);
 
-    // Three triangles on one edge.
+    // Three triangles on one edge, when asked to refuse them (MeshLoader.NonManifoldEdgesAreSplit).
+    LoadOptions no_fins;
+    no_fins.non_manifold_edges = NonManifoldEdgePolicy::Refuse;
     EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1},
-                              {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}})),
+                              {{0, 1, 2}, {1, 0, 3}, {0, 1, 4}}), no_fins),
               MeshErrorKind::NonManifoldEdge);
     // Pinched vertices, when asked to refuse them (MeshLoader.PinchedVerticesAreSplitIntoFans).
     LoadOptions refuse;
@@ -285,6 +287,34 @@ TEST(MeshLoader, PinchedVerticesAreSplitIntoFans) {
     }
     // A manifold mesh is left as it is.
     EXPECT_EQ(mesh_from_soup(octahedron()).report.split_vertices, 0u);
+}
+
+// Faces beyond two on an edge are paired off two by two, each pair its own edge: two tetrahedra
+// on one edge come apart into two closed ones, a fin's third triangle is detached.
+TEST(MeshLoader, NonManifoldEdgesAreSplit) {
+    const PolygonSoup tetrahedra = soup_of({0, 0, 0, 1, 0, 0, 0.5, 1, 0, 0.5, 0.3, 1, 0.5, -1, 0, 0.5, -0.3, -1},
+                                           {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, 3},
+                                            {0, 4, 1}, {0, 1, 5}, {1, 4, 5}, {4, 0, 5}});
+    const LoadedMesh two = mesh_from_soup(tetrahedra);
+    const kernels::Topology t = kernels::compute_topology(*two.mesh);
+    EXPECT_EQ(two.report.split_edges, 1u);
+    EXPECT_EQ(two.report.split_vertices, 2u);
+    EXPECT_EQ(t.components, 2);
+    EXPECT_EQ(t.boundary_loops, 0);
+    EXPECT_EQ(t.euler_characteristic, 4);
+    EXPECT_EQ(t.vertices, 8);
+    // A fin on the octahedron's equator edge: the octahedron stays closed, the fin hangs apart.
+    PolygonSoup finned = octahedron();
+    finned.positions.insert(finned.positions.end(), {2, 2, 0});
+    finned.indices.insert(finned.indices.end(), {0, 2, 6});
+    finned.offsets.push_back(finned.indices.size());
+    const LoadedMesh fin = mesh_from_soup(finned);
+    const kernels::Topology f = kernels::compute_topology(*fin.mesh);
+    EXPECT_EQ(fin.report.split_edges, 1u);
+    EXPECT_EQ(f.components, 2);
+    EXPECT_EQ(f.per_component[0].genus, 0);
+    EXPECT_EQ(f.per_component[0].boundary_loops, 0) << "the octahedron keeps its first two faces on the edge";
+    EXPECT_EQ(f.per_component[1].faces, 1);
 }
 
 // A file whose faces do not share their vertices along seams (here: every triangle its own three

@@ -30,6 +30,11 @@ enum class DuplicateFacePolicy { Drop, Refuse };
 //! boundaries.
 enum class SeamPolicy { Zip, Keep };
 
+//! An edge shared by more than two faces (a fin, sheets meeting along a line): the first face
+//! keeps one partner there and the others are detached (their ends split like pinched vertices),
+//! or a non_manifold_edge refusal.
+enum class NonManifoldEdgePolicy { Split, Refuse };
+
 struct LoadOptions {
     ComponentPolicy components = ComponentPolicy::All;
     std::size_t max_faces = 0;  //!< 0: no limit beyond 32-bit indices
@@ -38,6 +43,7 @@ struct LoadOptions {
     ZeroAreaPolicy zero_area_faces = ZeroAreaPolicy::Repair;
     DuplicateFacePolicy duplicate_faces = DuplicateFacePolicy::Drop;
     SeamPolicy seams = SeamPolicy::Zip;
+    NonManifoldEdgePolicy non_manifold_edges = NonManifoldEdgePolicy::Split;
 };
 
 //! What the loader changed on the way from file to MeshView (all counts; 0 when untouched).
@@ -54,6 +60,7 @@ struct LoadReport {
     std::size_t collapsed_faces = 0;        //!< the faces on those edges, gone with them
     std::size_t flipped_edges = 0;          //!< zero-area repair: edges with a corner on them, flipped
     std::size_t duplicate_faces = 0;        //!< on the vertices of an earlier face, dropped
+    std::size_t split_edges = 0;            //!< non-manifold edges whose extra faces were detached
     std::size_t zipped_edges = 0;           //!< boundary edge pairs at the same positions, joined
     std::size_t zipped_vertices = 0;        //!< their ends merged into another vertex
     std::size_t components = 0;             //!< in the file
