@@ -248,11 +248,13 @@ void repair_zero_area(const PolygonSoup& soup, std::vector<std::array<std::int64
 
 // Boundary edges that lie exactly on another boundary edge: a seam the file left open (a soup of
 // separate triangles, vertices duplicated along texture seams or between CAD patches). Where
-// exactly two boundary edges, running opposite ways, join the same two positions, their ends are
-// merged (into the smaller vertex number), which closes the seam. Zips whose merged vertices would
-// put a third face on an edge or two corners of a triangle together are left open, as are seams
-// where more than two sheets meet. Returns the vertices merged away; counts the edges zipped.
-std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64_t, 3>>& triangles,
+// exactly two boundary edges join the same two positions, running opposite ways (or either way,
+// with `turned`: a soup whose faces are not all wound alike, which the orientation repair then
+// turns), their ends are merged (into the smaller vertex number), which closes the seam. Zips
+// whose merged vertices would put a third face on an edge or two corners of a triangle
+// together are left open, as are seams where more than two sheets meet. Returns the vertices
+// merged away; counts the edges zipped.
+std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64_t, 3>>& triangles, bool turned,
                       std::size_t& zipped_edges) {
     const auto n_v = static_cast<Index>(soup.n_vertices());
     // Vertices by position; `place[v]`: the smallest vertex at v's position.
@@ -293,7 +295,7 @@ std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64
     const std::vector<Edge> edges = edges_of(identity);
     std::vector<char> was_boundary(3 * triangles.size(), 0);
     struct Seam {
-        Index tail_a, head_a, tail_b, head_b;  // two boundary halfedges' ends, running opposite ways
+        Index tail_a, head_a, tail_b, head_b;  // two boundary halfedges' ends, b's as if it ran opposite to a
     };
     std::vector<std::pair<std::array<Index, 2>, Seam>> candidates;  // keyed by the two positions
     {
@@ -316,6 +318,8 @@ std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64
                 const Index h = boundary[i].second, k = boundary[i + 1].second;
                 if (place[tail(h)] == place[head(k)])  // opposite ways: one surface, one orientation
                     candidates.push_back({boundary[i].first, {tail(h), head(h), tail(k), head(k)}});
+                else if (turned)
+                    candidates.push_back({boundary[i].first, {tail(h), head(h), head(k), tail(k)}});
             }
             i = j;
         }
@@ -357,7 +361,8 @@ std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64
             if (e.a != f.a || e.b != f.b) continue;
             if (i + 2 < merged.size() && merged[i + 2].a == e.a && merged[i + 2].b == e.b)
                 exclude_faces({e.halfedge, f.halfedge, merged[i + 2].halfedge});
-            else if ((was_boundary[e.halfedge] || was_boundary[f.halfedge]) && tail(e.halfedge) == tail(f.halfedge))
+            else if (!turned && (was_boundary[e.halfedge] || was_boundary[f.halfedge]) &&
+                     tail(e.halfedge) == tail(f.halfedge))
                 exclude_faces({e.halfedge, f.halfedge});
         }
         if (bad) continue;
@@ -511,9 +516,7 @@ std::size_t split_pinched_vertices(PointMatrix& V, TriangleMatrix& F, const std:
     return copied_from.size();
 }
 
-}  // namespace
-
-LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
+LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool turn_seams) {
     LoadReport report;
     report.file_vertices = soup.n_vertices();
     report.file_polygons = soup.n_polygons();
@@ -578,7 +581,8 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
                      " triangles");
     }
 
-    if (options.seams == SeamPolicy::Zip) report.zipped_vertices = zip_seams(soup, triangles, report.zipped_edges);
+    if (options.seams == SeamPolicy::Zip)
+        report.zipped_vertices = zip_seams(soup, triangles, turn_seams, report.zipped_edges);
 
     {   // duplicated faces: same vertex set, in any order or winding; the first one stays
         std::vector<std::pair<std::array<std::int64_t, 3>, std::size_t>> keys(triangles.size());
@@ -681,6 +685,19 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
                                        : MeshErrorKind::NonManifoldEdge;
         fail(kind, e.what());
     }
+}
+
+}  // namespace
+
+// Seams are first zipped whichever way their faces run; where that makes the surface
+// non-orientable (a Moebius band written as a soup), only those running opposite ways are.
+LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
+    try {
+        return load_soup(soup, options, true);
+    } catch (const MeshError& e) {
+        if (e.kind != MeshErrorKind::NonOrientable || options.seams != SeamPolicy::Zip) throw;
+    }
+    return load_soup(soup, options, false);
 }
 
 LoadedMesh load_mesh(const std::string& path, const LoadOptions& options) {

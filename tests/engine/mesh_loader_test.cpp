@@ -342,19 +342,80 @@ TEST(MeshLoader, SeamsAreZippedUnlessKept) {
     EXPECT_EQ(kernels::compute_topology(*mesh_from_soup(soup, keep).mesh).components, pretzel.n_faces());
 
     // Three sheets on one spine (positions 0 and 1): which two belong together is not known, so
-    // none is zipped; two triangles whose common positions run the same way would need one turned
-    // over: left open too.
+    // none is zipped; two triangles whose common positions run the same way are zipped, one of
+    // them turned over.
     const PolygonSoup book = soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1},
                                      {{0, 1, 2}, {4, 3, 5}, {6, 7, 8}});
     const LoadedMesh pages = mesh_from_soup(book);
     EXPECT_EQ(pages.report.zipped_edges, 0u);
     EXPECT_EQ(kernels::compute_topology(*pages.mesh).components, 3);
     const PolygonSoup same_way = soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 0}, {{0, 1, 2}, {3, 4, 5}});
-    EXPECT_EQ(mesh_from_soup(same_way).report.zipped_edges, 0u);
+    const LoadedMesh turned = mesh_from_soup(same_way);
+    EXPECT_EQ(turned.report.zipped_edges, 1u);
+    EXPECT_EQ(turned.report.reoriented_faces, 1u);
     const PolygonSoup opposite = soup_of({0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -1, 0}, {{0, 1, 2}, {4, 3, 5}});
     const LoadedMesh joined = mesh_from_soup(opposite);
     EXPECT_EQ(joined.report.zipped_edges, 1u);
     EXPECT_EQ(kernels::compute_topology(*joined.mesh).vertices, 4);
+}
+
+// A soup whose faces are not all wound alike is zipped whichever way its seams run and then
+// oriented; one that would become non-orientable (a Moebius band) keeps the seams that do.
+TEST(MeshLoader, SeamsOfInconsistentlyWoundSoupsAreZipped) {
+    const PolygonSoup octa = octahedron();
+    PolygonSoup soup;
+    for (std::size_t f = 0; f < octa.n_polygons(); ++f) {
+        std::int64_t corner[3] = {octa.indices[3 * f], octa.indices[3 * f + 1], octa.indices[3 * f + 2]};
+        if (f % 3 == 1) std::swap(corner[1], corner[2]);  // every third face turned over
+        for (const std::int64_t v : corner) {
+            for (int d = 0; d < 3; ++d) soup.positions.push_back(octa.positions[3 * v + d]);
+            soup.indices.push_back(static_cast<std::int64_t>(soup.indices.size()));
+        }
+        soup.offsets.push_back(soup.indices.size());
+    }
+    const LoadedMesh closed = mesh_from_soup(soup);
+    const kernels::Topology t = kernels::compute_topology(*closed.mesh);
+    EXPECT_EQ(std::tie(t.vertices, t.edges, t.faces, t.boundary_loops), std::make_tuple(6, 12, 8, 0));
+    EXPECT_EQ(closed.report.zipped_edges, 12u);
+    EXPECT_GT(closed.report.reoriented_faces, 0u);
+
+    // A band of 5 quads with a half twist, each quad its own four corners.
+    std::vector<double> p;
+    std::vector<std::vector<std::int64_t>> quads;
+    const auto corner_at = [](int i, double side) {
+        const double t = 2 * M_PI * i / 5, r = 1 + side * std::cos(t / 2);
+        return std::array<double, 3>{r * std::cos(t), r * std::sin(t), side * std::sin(t / 2)};
+    };
+    for (int i = 0; i < 5; ++i) {
+        const double far = i == 4 ? -1 : 1;  // the half twist
+        for (const auto& c : {corner_at(i, -0.3), corner_at(i + 1, -0.3 * far), corner_at(i + 1, 0.3 * far),
+                              corner_at(i, 0.3)})
+            p.insert(p.end(), c.begin(), c.end());
+        quads.push_back({4 * i, 4 * i + 1, 4 * i + 2, 4 * i + 3});
+    }
+    const LoadedMesh band = mesh_from_soup(soup_of(p, quads));
+    const kernels::Topology b = kernels::compute_topology(*band.mesh);
+    EXPECT_EQ(band.report.zipped_edges, 4u) << "the seam across the twist stays open";
+    EXPECT_EQ(b.components, 1);
+    EXPECT_EQ(b.euler_characteristic, 1) << "a strip";
+}
+
+// Real files with seams: CGAL's stitching data, and boeing, whose 122 separately meshed and
+// inconsistently wound patches close into one surface.
+TEST(MeshLoader, CorpusSeamsAreZipped) {
+    const auto topology = [](const std::string& name, SeamPolicy seams) {
+        LoadOptions options;
+        options.seams = seams;
+        return kernels::compute_topology(*load_mesh(test::corpus(name + ".off"), options).mesh);
+    };
+    const kernels::Topology boeing = topology("boeing", SeamPolicy::Zip);
+    EXPECT_EQ(std::make_tuple(boeing.components, boeing.boundary_loops, boeing.genus), std::make_tuple(1, 0, 10));
+    EXPECT_EQ(topology("boeing", SeamPolicy::Keep).components, 122);
+    const kernels::Topology shuffled = topology("oblong-shuffled", SeamPolicy::Zip), oblong = topology("oblong", SeamPolicy::Keep);
+    EXPECT_EQ(std::tie(shuffled.vertices, shuffled.edges, shuffled.boundary_loops),
+              std::tie(oblong.vertices, oblong.edges, oblong.boundary_loops));
+    EXPECT_EQ(topology("quads_to_stitch", SeamPolicy::Zip).components, 1);
+    EXPECT_EQ(topology("quads_to_stitch", SeamPolicy::Keep).components, 2);
 }
 
 TEST(MeshLoader, MoebiusBandIsNonOrientable) {
