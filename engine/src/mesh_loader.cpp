@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <numeric>
 #include <span>
-#include <tuple>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 #include <Eigen/Geometry>
 
@@ -347,8 +348,8 @@ std::size_t zip_seams(const PolygonSoup& soup, std::vector<std::array<std::int64
             if (a == b || b == c || a == c)
                 for (const std::int64_t v : t) excluded[place[v]] = 1, bad = true;
         }
-        // A third face on an edge, or two boundary edges brought together running the same way
-        // (the orientation would have to turn a sheet over).
+        // A third face on an edge, or (unless `turned`) two boundary edges brought together
+        // running the same way: the orientation would have to turn a sheet over.
         const std::vector<Edge> merged = edges_of(root);
         const auto tail = [&](Index h) { return root[triangles[h / 3][h % 3]]; };
         const auto exclude_faces = [&](std::initializer_list<Index> halfedges) {
@@ -385,7 +386,7 @@ std::vector<Index> pair_edges(const TriangleMatrix& F, Index n_vertices, NonMani
     const HalfedgeGroups groups = group_halfedges_by_vertex_pair(F, n_vertices);
     const auto tail = [&](Index h) { return F(h / 3, h % 3); };
     std::vector<Index> mate(3 * static_cast<std::size_t>(F.rows()), -1);
-    std::vector<Index> left;
+    std::deque<Index> runs[2];  // unpaired halfedges of a group, by direction, in index order
     for (Index g = 0; g < groups.n_groups(); ++g) {
         const Index begin = groups.group_start[g], size = groups.group_start[g + 1] - begin;
         if (size < 2) continue;
@@ -399,16 +400,22 @@ std::vector<Index> pair_edges(const TriangleMatrix& F, Index n_vertices, NonMani
                          " faces (vertex numbers after dropping unreferenced vertices)");
             ++split_edges;
         }
-        left.assign(groups.halfedges.begin() + begin, groups.halfedges.begin() + begin + size);
-        while (left.size() >= 2) {
-            std::size_t partner = 1;
-            while (partner < left.size() && tail(left[partner]) == tail(left[0])) ++partner;
-            if (partner == left.size()) partner = 1;
-            mate[left[0]] = left[partner];
-            mate[left[partner]] = left[0];
-            left.erase(left.begin() + static_cast<std::ptrdiff_t>(partner));
-            left.erase(left.begin());
+        const Index first_tail = tail(groups.halfedges[begin]);
+        for (Index i = begin; i < begin + size; ++i)
+            runs[tail(groups.halfedges[i]) != first_tail].push_back(groups.halfedges[i]);
+        while (runs[0].size() + runs[1].size() >= 2) {
+            // The first unpaired halfedge, and the first later one running the other way, else the next.
+            const int d = runs[1].empty() || (!runs[0].empty() && runs[0].front() < runs[1].front()) ? 0 : 1;
+            const Index h = runs[d].front();
+            runs[d].pop_front();
+            std::deque<Index>& other = runs[1 - d].empty() ? runs[d] : runs[1 - d];
+            const Index k = other.front();
+            other.pop_front();
+            mate[h] = k;
+            mate[k] = h;
         }
+        runs[0].clear();
+        runs[1].clear();
     }
     return mate;
 }
