@@ -597,10 +597,13 @@ class Builder {
             for (Index h = first;;) {
                 out.chain.push_back(h);
                 if (out.chain.size() > border.size()) return false;
-                Index n = MeshView::next(h);
-                for (int guard = 0; !on_border(n); ++guard) {
-                    if (guard > mesh_.n_halfedges()) return false;  // a guard: rotation always ends
+                // Around h's head inside the region to the next border halfedge; a whole turn
+                // without one (a cut seen from one side only) means no loop.
+                const Index start = MeshView::next(h);
+                Index n = start;
+                while (!on_border(n)) {
                     n = MeshView::next(mesh_.twin[n]);
+                    if (n == start) return false;
                 }
                 h = n;
                 if (h == first) break;
