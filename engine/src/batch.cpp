@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "holoflow/engine/mesh_reader.h"
 #include "holoflow/engine/output.h"
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/errors.h"
@@ -17,11 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool is_mesh_file(const fs::path& path) {
-    std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    return ext == ".off" || ext == ".obj" || ext == ".ply" || ext == ".stl";
-}
+bool is_mesh_file(const fs::path& path) { return mesh_format_of_name(path).has_value(); }
 
 // Keeps the path as spelled, unless an earlier input is the same file (another spelling, a
 // symbolic link to it): a model is computed once.
@@ -51,20 +48,31 @@ std::string not_a_list(const fs::path& path) {
 }
 
 // The mesh files under `folder`, except in the model folders of `out_root` (a batch writing into
-// a folder it reads would take its own outputs as inputs on the next run).
+// a folder it reads would take its own outputs as inputs on the next run). Links to folders are
+// followed, each folder once (a link to an ancestor would loop); a file with a mesh name that
+// is no regular file (a broken link, a FIFO) is taken too, to fail as a model rather than be
+// missed without a word; a folder that cannot be read refuses the batch.
 void add_folder(std::vector<std::string>& out, std::set<std::string>& seen, const fs::path& folder,
                 const fs::path& out_root) {
     std::vector<fs::path> files;
+    std::set<fs::path> entered;
     std::error_code ec;
-    for (fs::recursive_directory_iterator it(folder, fs::directory_options::skip_permission_denied, ec), end;
+    entered.insert(fs::weakly_canonical(folder, ec));
+    fs::path last = folder;
+    for (fs::recursive_directory_iterator it(folder, fs::directory_options::follow_directory_symlink, ec), end;
          !ec && it != end; it.increment(ec)) {
+        last = it->path();
         std::error_code type_ec;
-        if (!out_root.empty() && it->is_directory(type_ec) && fs::equivalent(it->path().parent_path(), out_root, type_ec))
-            it.disable_recursion_pending();
-        else if (it->is_regular_file(type_ec) && is_mesh_file(it->path()))
+        if (it->is_directory(type_ec)) {
+            const bool own_output = !out_root.empty() && fs::equivalent(it->path().parent_path(), out_root, type_ec);
+            if (own_output || !entered.insert(fs::weakly_canonical(it->path(), type_ec)).second)
+                it.disable_recursion_pending();
+        } else if (is_mesh_file(it->path())) {
             files.push_back(it->path());
+        }
     }
-    if (ec) throw InvalidInput("cannot list folder '" + folder.string() + "': " + ec.message());
+    if (ec)
+        throw InvalidInput("cannot list folder '" + folder.string() + "' (at '" + last.string() + "'): " + ec.message());
     std::sort(files.begin(), files.end());
     for (const fs::path& f : files) add_unique(out, seen, f);
 }
@@ -143,7 +151,10 @@ std::vector<ModelTask> make_tasks(const std::vector<std::string>& paths, const f
     std::vector<ModelTask> tasks;
     std::set<std::string> taken = {"summary.json", "summary.csv", kOutputLockFile};  // the batch's own files
     for (std::size_t i = 0; i < paths.size(); ++i) {
-        std::string stem = fs::path(paths[i]).stem().string();
+        // The file name without its mesh extension (a file named ".off" has an empty one).
+        std::string stem = fs::path(paths[i]).filename().string();
+        if (is_mesh_file(paths[i])) stem.resize(stem.size() - 4);
+        else stem = fs::path(paths[i]).stem().string();
         if (stem.empty() || stem == "." || stem == "..") stem = "model";
         // Room for a suffix within a file name's 255 bytes, cut between UTF-8 characters.
         constexpr std::size_t kMaxStem = 200;

@@ -1173,16 +1173,33 @@ PolygonSoup parse_stl(const char* data, std::size_t size) {
 
 }  // namespace
 
-MeshFormat format_from_path(const std::string& path) {
-    const std::filesystem::path p(path);
-    std::string ext = p.extension().string();
+namespace {
+
+// The file name's last dot and what follows, lower case ("" without a dot); unlike
+// path::extension(), a name that starts with its only dot (".off") has one.
+std::string name_suffix(const std::filesystem::path& path) {
+    const std::string name = path.filename().string();
+    const std::size_t dot = name.rfind('.');
+    std::string ext = dot == std::string::npos ? std::string() : name.substr(dot);
     for (char& ch : ext)
         if (ch >= 'A' && ch <= 'Z') ch = static_cast<char>(ch - 'A' + 'a');
+    return ext;
+}
+
+}  // namespace
+
+std::optional<MeshFormat> mesh_format_of_name(const std::filesystem::path& path) {
+    const std::string ext = name_suffix(path);
     if (ext == ".off") return MeshFormat::Off;
     if (ext == ".obj") return MeshFormat::Obj;
     if (ext == ".ply") return MeshFormat::Ply;
     if (ext == ".stl") return MeshFormat::Stl;
-    fail(Kind::UnknownFormat, "'", path, "': extension '", ext,
+    return std::nullopt;
+}
+
+MeshFormat format_from_path(const std::string& path) {
+    if (const std::optional<MeshFormat> format = mesh_format_of_name(path)) return *format;
+    fail(Kind::UnknownFormat, "'", path, "': extension '", name_suffix(path),
          "' is not one of .off .obj .ply .stl");
 }
 

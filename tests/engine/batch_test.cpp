@@ -11,6 +11,7 @@
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/stat.h>
+#include <unistd.h>
 #include <sys/wait.h>
 
 #include "holoflow/engine/segmentation_pipeline.h"
@@ -74,6 +75,34 @@ TEST(ExpandInputs, OneFileIsOneModelAndListsAreText) {
               std::string::npos);
     EXPECT_NE(refusal("mesh.txt", "\xEF\xBB\xBFply\nformat ascii 1.0\n").find("looks like a mesh file"),
               std::string::npos);
+}
+
+// Folders: links to folders are followed once (a link back up does not loop), files with mesh
+// names that are no regular files (a broken link, a FIFO) become models that will fail, and a
+// file named just ".off" is a mesh.
+TEST(ExpandInputs, LinksBrokenLinksFifosAndDotNames) {
+    const TempDir dir;
+    fs::create_directories(dir.path() / "set");
+    fs::create_directories(dir.path() / "elsewhere");
+    const std::string a = dir.write("set/a.off", "x"), b = dir.write("elsewhere/b.off", "x");
+    const std::string dot = dir.write("set/.off", "x");
+    fs::create_directory_symlink(dir.path() / "elsewhere", dir.path() / "set" / "linked");
+    fs::create_directory_symlink(dir.path() / "set", dir.path() / "set" / "up");  // a loop
+    fs::create_symlink(dir.path() / "nowhere.off", dir.path() / "set" / "broken.off");
+    ASSERT_EQ(::mkfifo((dir.path() / "set" / "pipe.obj").c_str(), 0644), 0);
+    const std::vector<std::string> paths = expand_inputs({(dir.path() / "set").string()});
+    const std::vector<std::string> expected = {dot, a, (dir.path() / "set" / "broken.off").string(),
+                                               (dir.path() / "set" / "linked" / "b.off").string(),
+                                               (dir.path() / "set" / "pipe.obj").string()};
+    EXPECT_EQ(paths, expected);
+    EXPECT_EQ(expand_inputs({dot}), std::vector<std::string>{dot}) << "not read as a list";
+    EXPECT_EQ(make_tasks({dot}, "out")[0].name, "model");
+    if (::geteuid() != 0) {  // root reads every folder
+        fs::create_directories(dir.path() / "set" / "closed");
+        fs::permissions(dir.path() / "set" / "closed", fs::perms::none);
+        EXPECT_THROW(expand_inputs({(dir.path() / "set").string()}), InvalidInput);
+        fs::permissions(dir.path() / "set" / "closed", fs::perms::owner_all);
+    }
 }
 
 TEST(MakeTasks, UniqueFolderNamesInInputOrder) {

@@ -1,6 +1,8 @@
 #pragma once
 
 #include <cstdint>
+#include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,7 +23,11 @@ struct PolygonSoup {
     std::size_t n_polygons() const { return offsets.size() - 1; }
 };
 
-//! Format from the file extension (case-insensitive); \throw MeshError UnknownFormat.
+//! The mesh format a file name ends in (`.off .obj .ply .stl`, any case; a file named `.off`
+//! too), if any.
+std::optional<MeshFormat> mesh_format_of_name(const std::filesystem::path& path);
+
+//! Format from the file extension (mesh_format_of_name); \throw MeshError UnknownFormat.
 MeshFormat format_from_path(const std::string& path);
 
 //! Reads OFF, OBJ, PLY (ascii, binary little/big endian, `face` lists and `tristrips`) or STL
