@@ -235,7 +235,14 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
     try {
         // The path as result.json holds it (bytes that are no UTF-8 written as U+FFFD).
         const std::string file = nlohmann::json::parse(json_text(task.path, -1)).get<std::string>();
-        if (!j.is_object() || j.value("status", "") != "ok" || j.value("file", "") != file ||
+        // The same file, maybe spelled another way (./models/a.off, an absolute path, a link).
+        const auto same_file = [&](const std::string& recorded) {
+            if (recorded == file) return true;
+            std::error_code a, b;
+            const fs::path was = fs::weakly_canonical(recorded, a), is = fs::weakly_canonical(task.path, b);
+            return !a && !b && was == is;
+        };
+        if (!j.is_object() || j.value("status", "") != "ok" || !same_file(j.value("file", "")) ||
             !j.contains("settings") || j["settings"] != settings)
             return std::nullopt;
         // The input changed since (edited, replaced), or an output went missing: recompute.

@@ -349,6 +349,19 @@ TEST(BatchCommand, OddNamesAndFoldersAreHandled) {
     EXPECT_EQ(slurp(in / "summary.json.off"), before);
 }
 
+// A re-run that names the same file another way reuses its result.
+TEST(BatchCommand, ReuseAcrossPathSpellings) {
+    const TempDir dir;
+    fs::create_directories(dir.path() / "in");
+    fs::copy_file(corpus("eight.off"), dir.path() / "in" / "m.off");
+    const std::string out = (dir.path() / "out").string();
+    ASSERT_EQ(run_cli("batch '" + (dir.path() / "in" / "m.off").string() + "' -o '" + out + "'").status, 0);
+    fs::create_directory_symlink(dir.path() / "in", dir.path() / "link");
+    const test::CommandResult again = run_cli("batch '" + (dir.path() / "link" / "m.off").string() + "' -o '" + out + "'");
+    ASSERT_EQ(again.status, 0) << again.err;
+    EXPECT_NE(again.out.find("1 reused"), std::string::npos) << again.out;
+}
+
 // A model that fails keeps no files of an earlier run, which would pass for its result.
 TEST(BatchCommand, AFailedModelKeepsNoEarlierFiles) {
     const TempDir dir;
