@@ -100,8 +100,8 @@ struct LoadArgs {
             ->check(CLI::IsMember({"zip", "keep"}));
         command
             .add_option("--non-manifold-edges", non_manifold_edges,
-                        "an edge shared by more than two faces: keep one pair of faces on it and detach the "
-                        "others, or refuse the mesh")
+                        "an edge shared by more than two faces: pair its faces off two by two, each pair its "
+                        "own edge, or refuse the mesh")
             ->check(CLI::IsMember({"split", "refuse"}));
         command.add_option("--max-faces", max_faces, "refuse meshes with more triangles (0: no limit)");
     }
