@@ -23,10 +23,7 @@ bool is_mesh_file(const fs::path& path) { return mesh_format_of_name(path).has_v
 // Keeps the path as spelled, unless an earlier input is the same file (another spelling, a
 // symbolic link to it): a model is computed once.
 void add_unique(std::vector<std::string>& out, std::set<std::string>& seen, const fs::path& path) {
-    std::error_code ec;
-    fs::path identity = fs::weakly_canonical(path, ec);
-    if (ec) identity = fs::absolute(path, ec).lexically_normal();
-    if (seen.insert(identity.string()).second) out.push_back(path.lexically_normal().string());
+    if (seen.insert(file_identity(path).string()).second) out.push_back(path.lexically_normal().string());
 }
 
 // Why `path` (not a mesh file by name) cannot be a list of paths, or empty if it can: lists are
@@ -237,10 +234,7 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
         const std::string file = nlohmann::json::parse(json_text(task.path, -1)).get<std::string>();
         // The same file, maybe spelled another way (./models/a.off, an absolute path, a link).
         const auto same_file = [&](const std::string& recorded) {
-            if (recorded == file) return true;
-            std::error_code a, b;
-            const fs::path was = fs::weakly_canonical(recorded, a), is = fs::weakly_canonical(task.path, b);
-            return !a && !b && was == is;
+            return recorded == file || file_identity(recorded) == file_identity(task.path);
         };
         if (!j.is_object() || j.value("status", "") != "ok" || !same_file(j.value("file", "")) ||
             !j.contains("settings") || j["settings"] != settings)

@@ -199,18 +199,19 @@ void write_file_atomic(const std::filesystem::path& path, const std::string& con
     });
 }
 
+fs::path file_identity(const fs::path& path) {
+    std::error_code ec;
+    const fs::path canonical = fs::weakly_canonical(path, ec);
+    return ec ? fs::absolute(path, ec).lexically_normal() : canonical;
+}
+
 void refuse_overwriting_inputs(const std::vector<fs::path>& outputs, const std::vector<std::string>& inputs) {
-    const auto identity = [](const fs::path& path) {
-        std::error_code ec;
-        const fs::path canonical = fs::weakly_canonical(path, ec);
-        return ec ? fs::absolute(path, ec).lexically_normal() : canonical;
-    };
     std::map<fs::path, std::string> input_of;
-    for (const std::string& input : inputs) input_of.emplace(identity(input), input);
+    for (const std::string& input : inputs) input_of.emplace(file_identity(input), input);
     std::map<fs::path, fs::path> folder_identity;  // outputs share few folders: resolve each once
     for (const fs::path& output : outputs) {
         auto [folder, added] = folder_identity.try_emplace(output.parent_path());
-        if (added) folder->second = identity(output.parent_path().empty() ? fs::path(".") : output.parent_path());
+        if (added) folder->second = file_identity(output.parent_path().empty() ? fs::path(".") : output.parent_path());
         // An output that is a link to an input would be replaced, not written through: only the
         // folder is resolved.
         if (const auto it = input_of.find(folder->second / output.filename()); it != input_of.end())

@@ -88,6 +88,10 @@ class OutputFolder {
 //! The lock file an OutputFolder holds (not a name a model folder may take).
 inline constexpr const char* kOutputLockFile = ".holoflow.lock";
 
+//! What names a file whatever the spelling: its path with links resolved where it exists
+//! (absolute and normalised where it does not).
+std::filesystem::path file_identity(const std::filesystem::path& path);
+
 //! \brief Refuses a run that would write one of `outputs` over one of `inputs` (the same file by
 //! any spelling or link: a mesh named segments.ply segmented into its own folder).
 //! \throw InvalidInput naming both.
