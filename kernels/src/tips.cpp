@@ -281,6 +281,22 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
     HOLOFLOW_REQUIRE(is_connected(g), "mesh is empty or has several components");
 
     const std::vector<char> on_boundary = boundary_vertex_flags(mesh);
+    // A hole always takes its tip's one-ring, so a tip next to the boundary could never be
+    // sliced: tips are vertices two rings from the boundary at least. On a coarse or thin disk
+    // the measure's maximum can sit next to the boundary (a needle's lies by its short side).
+    std::vector<char> eligible(on_boundary.size(), 1);
+    for (Index v = 0; v < g.n_vertices(); ++v)
+        if (on_boundary[v]) {
+            eligible[v] = 0;
+            for (Index k = g.start[v]; k < g.start[v + 1]; ++k) eligible[g.neighbor[k]] = 0;
+        }
+    // The highest eligible vertex of x; -1 when none is eligible.
+    auto eligible_argmax = [&](const std::vector<double>& x) {
+        Index best = -1;
+        for (Index v = 0; v < g.n_vertices(); ++v)
+            if (eligible[v] && (best < 0 || x[v] > x[best])) best = v;
+        return best;
+    };
     TipDetection out;
     out.measure = measure_on(mesh, g, on_boundary, options.samples);
     const std::vector<double>& value = out.measure.value;
@@ -292,7 +308,7 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
     const std::vector<double> prominence = peak_prominence(g, value);
     std::vector<Index> candidates;
     for (Index v = 0; v < g.n_vertices(); ++v)
-        if (prominence[v] >= 0 && prominence[v] >= threshold && !on_boundary[v])
+        if (prominence[v] >= 0 && prominence[v] >= threshold && eligible[v])
             candidates.push_back(v);
     std::sort(candidates.begin(), candidates.end(), [&](Index u, Index v) {
         return prominence[u] > prominence[v] || (prominence[u] == prominence[v] && u < v);
@@ -319,8 +335,8 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
     // Too few (a round blob): the highest vertex, then farthest points from the tips so far
     // and from the boundary.
     if (out.tips.empty()) {
-        const Index top = argmax(value);
-        if (!on_boundary[top]) {
+        const Index top = eligible_argmax(value);
+        if (top >= 0) {
             out.tips.push_back(top);
             out.prominence.push_back(0.0);
             out.isolation.push_back(1.0);
@@ -333,8 +349,8 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
             if (on_boundary[v]) sources.push_back(v);
         if (sources.empty()) break;
         const std::vector<double> d = dijkstra.full(sources);
-        const Index next = argmax(d);
-        if (!(d[next] > 0)) break;  // no vertex left that is not a tip or on the boundary
+        const Index next = eligible_argmax(d);
+        if (next < 0 || !(d[next] > 0)) break;  // no eligible vertex left that is not a tip
         out.tips.push_back(next);
         out.prominence.push_back(0.0);
         out.isolation.push_back(diameter > 0 ? std::min(d[next], diameter) / diameter : 0.0);

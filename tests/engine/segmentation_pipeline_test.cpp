@@ -608,6 +608,23 @@ TEST(Segmentation, CoarseGenusZeroIsRefinedBeforeSlicing) {
     EXPECT_EQ(r.tips, (std::vector<Index>{0, 6}));
 }
 
+// A needle triangle (40 : 1, a fin split off a body) needs three midpoint steps for a hole two
+// rings from its border; the tip by its short side took seven (65k faces) and left artifacts.
+TEST(Segmentation, NeedleTriangleIsRefinedOnlyUntilAHoleFits) {
+    Eigen::MatrixXd V(3, 3);
+    V << 0, 0, 0, 0.001, 0, 0, 0.0005, 0.045, 0;
+    Eigen::MatrixXi F(1, 3);
+    F << 0, 1, 2;
+    const SegmentationResult r = segment(make_mesh_view(V, F));
+    EXPECT_EQ(r.tip_refinements, 3);
+    EXPECT_EQ(r.conformal.basis.genus, 1);
+    EXPECT_EQ(r.zeros.artifact_clusters, 0);
+    EXPECT_EQ(r.regular.failed_regions, 0);
+    ASSERT_EQ(r.patches.info.size(), 1u);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_EQ(unfinished(r), 0);
+}
+
 TEST(Segmentation, SameResultForAnyThreadCount) {
     const auto mesh = test::corpus_mesh("elephant");
     const auto run = [&](int threads) {

@@ -19,6 +19,7 @@
 #include "holoflow/kernels/double_cover.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/shapes.h"
+#include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/topology.h"
 #include "support/test_support.h"
 
@@ -193,6 +194,35 @@ TEST(FindTips, DiskTipsAreInteriorAndTheFirstIsTheCentre) {
     const SlicedMesh s = slice_tips(grid, d.tips, 0.2);
     expect_valid_slice(grid, s);
     EXPECT_EQ(s.tips.size(), 2u);
+}
+
+// A needle's distance to the boundary peaks by its short side, next to the boundary on a coarse
+// mesh, where no hole fits. Tips are two rings in, so three midpoint steps (45 vertices) do.
+TEST(FindTips, NeedleTipsAreTwoRingsFromTheBoundary) {
+    Eigen::MatrixXd V(3, 3);
+    V << 0, 0, 0, 0.001, 0, 0, 0.0005, 0.045, 0;
+    Eigen::MatrixXi F(1, 3);
+    F << 0, 1, 2;
+    MeshView needle = make_mesh_view(V, F);
+    for (int level = 0; level < 2; ++level) {
+        needle = subdivide_midpoint(needle);
+        EXPECT_TRUE(find_tips(needle, {.max_tips = 2, .min_tips = 1}).empty()) << "level " << level + 1;
+    }
+    needle = subdivide_midpoint(needle);
+    const std::vector<Index> tips = find_tips(needle, {.max_tips = 2, .min_tips = 1});
+    ASSERT_FALSE(tips.empty());
+    const Topology before = compute_topology(needle);
+    for (Index t : tips) {
+        Index h = needle.vertex_halfedge[t];
+        const Index h0 = h;
+        do {  // no neighbour on the boundary (its stored halfedge would be a boundary one)
+            EXPECT_FALSE(needle.is_boundary_halfedge(needle.vertex_halfedge[needle.head(h)]));
+            h = needle.rotate(h);
+        } while (h != h0);
+    }
+    const SlicedMesh s = slice_tips(needle, tips, 0.02);
+    expect_valid_slice(needle, s);
+    EXPECT_EQ(compute_topology(s.mesh).boundary_loops, before.boundary_loops + static_cast<Index>(s.tips.size()));
 }
 
 TEST(FindTips, RejectsBadOptionsAndDisconnectedMeshes) {

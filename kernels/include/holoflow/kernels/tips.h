@@ -55,7 +55,8 @@ struct TipDetection {
 //! \pre the mesh is connected.  \throw InvalidInput otherwise.
 TipMeasure compute_tip_measure(const MeshView& mesh, const TipOptions& options = {});
 
-//! Tips: local maxima of compute_tip_measure that pass the `prominence` test, ordered by
+//! Tips: local maxima of compute_tip_measure that pass the `prominence` test and lie two rings
+//! from the boundary at least (a hole takes its tip's one-ring), ordered by
 //! prominence (decreasing; ties by vertex id), at most max_tips. When fewer than min_tips pass
 //! (a round blob), farthest point sampling from the tips found (or, when none passed, from the
 //! highest vertex) and from the boundary completes them: on a sphere, two nearly antipodal
