@@ -680,7 +680,8 @@ TEST(Segmentation, RigidMotionAndScaleChangeNothing) {
 // curves cross, and the cutter's pieces there triangulated with one diagonal twice (a curve's
 // stop lying on the chord between them). The cut mesh was refused as non-manifold ("4 faces
 // share it") and the model failed; now that face's curves are skipped (counted) and the rest
-// is segmented.
+// is segmented. Whether such a face arises hangs on the last bits of the form, which differ
+// between CPUs (BLAS kernels chosen at run time), so the skip itself is tested in FlowCut.
 TEST(Segmentation, CurvesCrossingInAFoldedFaceAreSkippedNotFatal) {
     PolygonSoup soup = read_polygon_soup(test::corpus("cheese.off"));
     std::array<double, 3> lo{}, hi{};
@@ -694,7 +695,6 @@ TEST(Segmentation, CurvesCrossingInAFoldedFaceAreSkippedNotFatal) {
     for (std::size_t i = axis; i < soup.positions.size(); i += 3) soup.positions[i] *= 10;
     const LoadedMesh loaded = mesh_from_soup(soup);
     const SegmentationResult r = segment(*loaded.mesh);
-    EXPECT_GT(r.cut.skipped_segments, 0);
     EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
     EXPECT_EQ(r.patches.face_patch.size(), static_cast<std::size_t>(r.cut.mesh.n_faces()));
     EXPECT_EQ(std::count(r.patches.face_patch.begin(), r.patches.face_patch.end(), -1), 0);

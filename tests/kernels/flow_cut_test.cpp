@@ -169,6 +169,57 @@ TEST(FlowCut, CurvesCrossingInAFaceAreSkipped) {
     EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
 }
 
+// Curves crossing in face A B C (only a face folded in its chart lets traced curves do so):
+// T0 runs from A to M on BC; T1 leaves C close along CA and stops on T0 near A; T2 leaves C
+// and stops on T0; T3 comes from D across AC, crosses T1 and stops on T0; T4 comes from D
+// across AC and stops on T1. The pieces the placeable curves split the face into then
+// triangulate with one diagonal twice, which no mesh can hold: the face keeps
+// only its border (all five of its segments skipped), and the cut mesh stays a valid tiling (it
+// was refused as non-manifold before). The configuration hangs on rounding, hence the digits;
+// the cutter's arithmetic is plain doubles, the same on every machine.
+TEST(FlowCut, CrossingCurvesWhosePiecesShareADiagonalLeaveTheFaceWhole) {
+    const Square square;
+    using Point = std::array<double, 3>;  // barycentric of A B C
+    const auto along = [](const Point& from, const Point& to, double s) {
+        return Point{from[0] + s * (to[0] - from[0]), from[1] + s * (to[1] - from[1]), from[2] + s * (to[2] - from[2])};
+    };
+    const Point a{1, 0, 0}, c{0, 0, 1}, m{0, 1 - 0.6019186653459272, 0.6019186653459272};
+    std::vector<Trajectory> ts(5);
+    ts[0].start_vertex = 0;
+    ts[0].crossings = {{1, 0.6019186653459272, 1.167}};
+    ts[0].end = Trajectory::End::Boundary;
+    ts[0].length = 1.167;
+    // T stops on the blocker's first segment (from `from` to `to`) at s, where the blocker has
+    // come `blocker_length` far, after T has come `length`.
+    const auto stop = [&](Index t, Index blocker, const Point& from, const Point& to, double s, double blocker_length,
+                          double length) {
+        ts[t].end = Trajectory::End::Collision;
+        ts[t].end_barycentric = along(from, to, s);
+        ts[t].blocker = blocker;
+        ts[t].blocker_segment = 0;
+        ts[t].blocker_length = blocker_length;
+        ts[t].length = length;
+    };
+    ts[1].start_vertex = 2;
+    stop(1, 0, a, m, 0.062917483984265513, 0.0734, 1.343);
+    ts[2].start_vertex = 2;
+    stop(2, 0, a, m, 0.5864304006019323, 0.684, 0.768);
+    ts[3].start_vertex = 3;
+    ts[3].crossings = {{3, 0.074265173269746104, 0.9}};
+    stop(3, 0, a, m, 0.27105204218065482, 0.316, 1.145);
+    ts[4].start_vertex = 3;
+    ts[4].crossings = {{3, 0.52076505367503723, 0.7}};
+    stop(4, 1, c, ts[1].end_barycentric, 0.22207774587298207, 0.298, 1.087);
+    for (Index i = 0; i < 5; ++i) {
+        ts[i].first_face = i < 3 ? 0 : 1;
+        ts[i].family = i == 2 || i == 3 ? TrajectoryFamily::Horizontal : TrajectoryFamily::Vertical;
+    }
+    const CutMesh cut = cut_along_trajectories(square.mesh, square.tau, ts);
+    EXPECT_EQ(cut.skipped_segments, 5);
+    expect_tiles_the_square(cut);
+    EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
+}
+
 // The cutter pairs halfedges by construction (pieces of input edges, chords inside a face); it
 // must find the pairing that matching vertex pairs over the whole cut mesh gives.
 TEST(FlowCut, PairingIsTheOneByVertexPairs) {
