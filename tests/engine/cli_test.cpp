@@ -373,6 +373,25 @@ TEST(Cli, SegmentWritesItsFilesAndJson) {
 // With the extrinsic Laplacian the form is harmonic for the mesh's own cotan weights, so its
 // saddles are counted on the mesh, not on the intrinsic Delaunay triangulation; the count stays
 // exactly 2g - 2.
+// `segment` starts itself again with malloc on transparent huge pages (main.cpp); the restart
+// keeps every argument (paths with spaces), and the results do not depend on the page size.
+TEST(Cli, HugePagesRestartKeepsArgumentsAndResults) {
+    test::TempDir dir;
+    const auto run = [&](const std::string& name) {
+        const std::string out = (dir.path() / name).string();
+        const auto r = test::run_cli("segment '" + test::corpus("femur.off") + "' -o '" + out + "'");
+        EXPECT_EQ(r.status, 0) << r.err;
+        std::ifstream in(std::filesystem::path(out) / "segments.ply", std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    const std::string huge = run("huge pages");
+    ASSERT_EQ(setenv("HOLOFLOW_HUGE_PAGES", "0", 1), 0);
+    const std::string small = run("small pages");
+    unsetenv("HOLOFLOW_HUGE_PAGES");
+    EXPECT_FALSE(huge.empty());
+    EXPECT_TRUE(huge == small);
+}
+
 TEST(Cli, SegmentWithExtrinsicLaplacianCountsZerosOnTheMesh) {
     test::TempDir dir;
     for (const auto& [name, genus] : {std::pair{"eight", 2}, {"helmet", 3}}) {
