@@ -354,17 +354,23 @@ int run_batch(const BatchArgs& args) {
 // paravirtualised 2-vCPU machine, 2.4M faults made 18 of the 31 s of a holed mesh's
 // segmentation (13.9 s with huge pages) and the corpus batch took 70 s instead of 38 s;
 // results are byte-identical. HOLOFLOW_HUGE_PAGES=0, or any GLIBC_TUNABLES naming the tunable,
-// leaves the process as started; where the exec fails it goes on without.
+// leaves the process as started, and so does running under valgrind (its tools would lose the
+// restarted process); where the exec fails it goes on without.
 void restart_on_huge_pages(int argc, char** argv) {
     if (argc < 2 || std::strncmp(argv[1], "-", 1) == 0 || std::strcmp(argv[1], "info") == 0) return;  // light jobs
     const char* opt_out = std::getenv("HOLOFLOW_HUGE_PAGES");
     if (opt_out != nullptr && std::strcmp(opt_out, "0") == 0) return;
+    const char* preload = std::getenv("LD_PRELOAD");
+    if (preload != nullptr && std::strstr(preload, "vgpreload") != nullptr) return;
     const char* tunables = std::getenv("GLIBC_TUNABLES");
     const std::string before = tunables != nullptr ? tunables : "";
     if (before.find("glibc.malloc.hugetlb") != std::string::npos) return;
+    std::error_code error;
+    const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
+    if (error) return;
     const std::string with = before.empty() ? "glibc.malloc.hugetlb=1" : before + ":glibc.malloc.hugetlb=1";
     if (setenv("GLIBC_TUNABLES", with.c_str(), 1) != 0) return;
-    execv("/proc/self/exe", argv);
+    execv(self.c_str(), argv);
     if (tunables != nullptr) setenv("GLIBC_TUNABLES", before.c_str(), 1);  // exec failed
     else unsetenv("GLIBC_TUNABLES");
 }
