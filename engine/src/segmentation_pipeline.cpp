@@ -330,9 +330,11 @@ std::vector<Index> holes_at_failed_fans(const MeshView& surface, const kernels::
 
 // The conformal stage, the zeros and the fans again on a refinement of the traced surface (same
 // shape, same vertex ids); nothing where that fails, would need more memory than allowed (counted
-// in `over_memory_limit`) or has more than max_faces.
+// in `over_memory_limit`) or has more than max_faces. A try is kept only where fewer regions
+// fail than `failed_now`; where as many fail, its fans leave the flips no region holds
+// (kernels::FanOptions::leftover_folds_below_failed), which change no region's outcome.
 std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options, Index max_faces,
-                                                   Index& over_memory_limit) {
+                                                   Index failed_now, Index& over_memory_limit) {
     if (surface.n_faces() > max_faces) return std::nullopt;
     SegmentationWork refined;
     refined.options = options;
@@ -343,7 +345,9 @@ std::optional<SegmentationWork> on_refined_surface(MeshView surface, const Segme
         refined.conformal = conformal_stage::prepare(refined.result.traced_input, options.conformal, &topology);
         conformal_stage::run_after_prepare(refined.conformal, nullptr);  // a new pattern: no cache
         locate_zeros(refined);
-        refined.result.regular = regularised(refined);
+        kernels::FanOptions fans;
+        fans.leftover_folds_below_failed = failed_now;
+        refined.result.regular = regularised(refined, fans);
     } catch (const InvalidInput&) {
         return std::nullopt;
     } catch (const SolverFailure&) {
@@ -411,7 +415,7 @@ void fans(SegmentationWork& work) {
     const auto midpoint_try = [&] {
         std::optional<SegmentationWork> refined =
             on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces,
-                               r.tries_over_memory_limit);
+                               r.regular.failed_regions, r.tries_over_memory_limit);
         tried(refined);
         return refined;
     };
@@ -423,7 +427,8 @@ void fans(SegmentationWork& work) {
             bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular), max_faces);
         std::optional<SegmentationWork> next;
         if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
-            next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.tries_over_memory_limit);
+            next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.regular.failed_regions,
+                                      r.tries_over_memory_limit);
         tried(next);
         // After a midpoint step, a second one competes with a first bisection round that left
         // regions failed; it is kept only where fewer fail on it (it adds more faces).
@@ -448,7 +453,8 @@ void fans(SegmentationWork& work) {
         kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
         if (filled.holes == 0) break;
         std::optional<SegmentationWork> closed =
-            on_refined_surface(std::move(filled.mesh), try_options(), max_faces, r.tries_over_memory_limit);
+            on_refined_surface(std::move(filled.mesh), try_options(), max_faces, r.regular.failed_regions,
+                               r.tries_over_memory_limit);
         tried(closed);
         if (!keep_if_fewer_fail(std::move(closed), false)) break;
         r.filled_holes += filled.holes;

@@ -214,9 +214,13 @@ class Builder {
         // Zeros first, each on its own; then folds (one next to a zero joins the zero's region);
         // then zeros that failed may take in the zeros of their tangle (one centre for zeros
         // the mesh cannot separate); then folds again, and flips no region holds.
+        const std::size_t n_regions = regions_.size();
         for (int pass = 0; pass < 5; ++pass) {
             if (pass == 4) add_leftovers(groups);
             for (std::size_t r = 0; r < groups.size(); ++r) {
+                // The leftovers (after the regions) change no region's outcome: skipped where
+                // the caller does not want them at this many failed regions.
+                if (r == n_regions && pass == 4 && failed_regions(groups) >= options_.leftover_folds_below_failed) break;
                 const bool zeros_pass = pass == 0 || pass == 2;
                 if ((groups[r].order > 0) != zeros_pass || groups[r].absorbed_into >= 0 || groups[r].accepted)
                     continue;
@@ -230,6 +234,14 @@ class Builder {
     }
 
     const std::vector<int>& flips() const { return flip_; }
+
+    // Regions whose group was not accepted, in itself or within another one.
+    Index failed_regions(const std::vector<Group>& groups) const {
+        Index placed = 0;
+        for (const Group& g : groups)
+            if (g.accepted) placed += static_cast<Index>(g.members.size());
+        return static_cast<Index>(regions_.size()) - placed;
+    }
 
  private:
     // Image angle of face f at its corner v.

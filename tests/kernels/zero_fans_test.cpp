@@ -136,6 +136,35 @@ TEST(ZeroFans, FoldWithoutAZeroIsReTriangulated) {
     for (int w : c.winding) EXPECT_LE(w, 1);
 }
 
+// Two folds like the one above: one given as a region, one no region holds (a leftover).
+// Where leftover folds are not wanted at that many failed regions, the leftover stays
+// flipped, and which regions fail is the same.
+TEST(ZeroFans, LeftoverFoldsCanBeLeftWithoutChangingWhichRegionsFail) {
+    const MeshView m = shapes::flat_grid(12, 12);
+    std::vector<Complex> image(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) image[v] = point(m, v);
+    const Index given = 3 * 13 + 3, leftover = 8 * 13 + 8;
+    image[given] += Complex(0.14, 0.09);  // about 1.5 cells away: beyond its whole one-ring
+    image[leftover] += Complex(-0.09, 0.14);
+    const Eigen::VectorXcd tau = form_of(m, image);
+    ZeroRegion fold;
+    fold.vertices = {given};
+    const std::vector<ZeroRegion> regions{fold};
+    const RegularisedForm full = regularise_zeros(m, tau, regions);
+    FanOptions comparable;
+    comparable.leftover_folds_below_failed = 1;  // kept: none failed
+    const RegularisedForm kept = regularise_zeros(m, tau, regions, comparable);
+    EXPECT_EQ(kept.flipped_faces, 0);
+    comparable.leftover_folds_below_failed = 0;  // not kept below 0 failed: leftovers skipped
+    const RegularisedForm partial = regularise_zeros(m, tau, regions, comparable);
+    EXPECT_EQ(full.failed_regions, 0);
+    EXPECT_EQ(partial.failed_regions, full.failed_regions);
+    EXPECT_EQ(full.flipped_faces, 0);
+    EXPECT_EQ(check_image(full.mesh, full.tau).flipped, 0);
+    EXPECT_GT(partial.flipped_faces, 0);
+    EXPECT_EQ(check_image(partial.mesh, partial.tau).flipped, partial.flipped_faces);
+}
+
 // Without regions and folds the mesh passes through as it is: the same triangles and form,
 // identity maps (a torus without folds keeps the surface's homology cut graph this way).
 TEST(ZeroFans, NoRegionAndNoFoldKeepsTheMesh) {
