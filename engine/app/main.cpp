@@ -352,7 +352,7 @@ int run_batch(const BatchArgs& args) {
 // starts itself again with it (once: the tunable is then set). The large dense #E x 2g form
 // matrices and factors otherwise fault in 4 KiB at a time, and page faults cost: on a
 // paravirtualised 2-vCPU machine, 2.4M faults made 18 of the 31 s of a holed mesh's
-// segmentation (13.9 s with huge pages) and the corpus batch took 70 s instead of 38 s;
+// segmentation (15 s with huge pages) and the corpus batch took 70 s instead of 33 s;
 // results are byte-identical. HOLOFLOW_HUGE_PAGES=0, or any GLIBC_TUNABLES naming the tunable,
 // leaves the process as started, and so does running under valgrind (its tools would lose the
 // restarted process); where the exec fails it goes on without.

@@ -31,8 +31,8 @@ struct FanOptions {
     bool regrow_failed = false;
     //! Flips no region holds become folds of their own, re-triangulated last, where fewer
     //! regions than this failed; elsewhere they stay flipped. Which regions fail is the same
-    //! either way (a fold taking in an accepted region gives it its own centre, and a failed
-    //! region holds no faces to take in), so a caller that keeps a result only where fewer
+    //! either way (a fold that takes in an accepted region places it at the fold's centre, and
+    //! a failed region holds no faces to take in), so a caller that keeps a result only where fewer
     //! regions fail than in another (the pipeline's refinement tries) skips them where it will
     //! not keep it. On stretched meshes they are most of the work (kitten x30's bisected try:
     //! 37.8M of the 39.1M faces developed).
