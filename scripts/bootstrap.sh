@@ -87,9 +87,10 @@ tsan_stage() {
   fi
   echo "bootstrap: TSan libtbb from $(cat "$tbb/built") in $tbb/prefix"
 
+  # One executable per test file here (HOLOFLOW_TEST_UNITY=OFF): only these files are built.
   local targets=(engine_batch_test) t
   for t in "$here"/tests/graphs/*_test.cpp; do targets+=("graphs_$(basename "$t" .cpp)"); done
-  configure "$tsan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON \
+  configure "$tsan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON -DHOLOFLOW_TEST_UNITY=OFF \
     -DCMAKE_CXX_FLAGS="-fsanitize=thread -fno-omit-frame-pointer" -DHOLOFLOW_BUILD_BENCH=OFF \
     -DTBB_DIR="$tbb/prefix/lib/cmake/TBB"
   cmake --build "$tsan" -j "$jobs" --target "${targets[@]}"
@@ -129,9 +130,11 @@ fetch_tbb_source() {
   (cd "$1" && apt-get source -q onetbb)
 }
 
+# The test executables are built one per layer in batches of files (tests/CMakeLists.txt,
+# HOLOFLOW_TEST_UNITY): a third less compile time than one per file when built from scratch.
 configure_and_build() {
   configure "$build" -DCMAKE_BUILD_TYPE=Release -DHOLOFLOW_BUILD_TESTS=ON \
-    -DHOLOFLOW_BUILD_BENCH=ON
+    -DHOLOFLOW_BUILD_BENCH=ON -DHOLOFLOW_TEST_UNITY=ON
   cmake --build "$build" -j "$jobs"
 }
 
@@ -161,7 +164,7 @@ case "${1:-}" in
     # dereference still stops ASan (SEGV, with its stack), and no code here reads bytes through a
     # cast pointer (the binary readers memcpy).
     asan="$build-asan"
-    configure "$asan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON \
+    configure "$asan" "${sanitizer_build_flags[@]}" -DHOLOFLOW_BUILD_TESTS=ON -DHOLOFLOW_TEST_UNITY=ON \
       -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize=alignment,null -fno-omit-frame-pointer -fno-sanitize-recover=undefined -fsanitize-recover=vptr" \
       -DHOLOFLOW_BUILD_BENCH=OFF
     cmake --build "$asan" -j "$jobs"

@@ -22,7 +22,7 @@ namespace {
 
 constexpr double kSolveTol = 1e-10;  // relative: two direct solvers on a mesh Laplacian (cond ~1e4)
 constexpr double kSweepTol = 1e-13;  // relative: same factor, BLAS blocking differs per RHS count
-constexpr std::uint64_t kSeed = 77001;
+constexpr std::uint64_t kCholeskySeed = 77001;
 
 Eigen::SparseMatrix<double> upper_matrix(const LaplacianMatrix& L) {
     std::vector<Eigen::Triplet<double>> t;
@@ -61,7 +61,7 @@ MeshView jittered(MeshView mesh, std::uint64_t seed, double amount) {
 }
 
 TEST(Cholesky, SolveMatchesSimplicialLDLT) {
-    SCOPED_TRACE(kSeed);
+    SCOPED_TRACE(kCholeskySeed);
     for (const MeshView& mesh :
          {shapes::icosphere(4), shapes::torus(2.0, 0.5, 60, 30), shapes::genus_surface(2, 4)}) {
         const LaplacianMatrix L = pinned_laplacian(mesh);
@@ -74,7 +74,7 @@ TEST(Cholesky, SolveMatchesSimplicialLDLT) {
         EXPECT_EQ(factor->size(), L.n);
         EXPECT_EQ(factor->symbolic(), symbolic);
 
-        const Eigen::MatrixXd B = random_matrix(L.n, 6, kSeed);
+        const Eigen::MatrixXd B = random_matrix(L.n, 6, kCholeskySeed);
         const Eigen::MatrixXd X = factor->solve(B);
         Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper> ldlt(upper_matrix(L));
         ASSERT_EQ(ldlt.info(), Eigen::Success);
@@ -96,13 +96,13 @@ TEST(Cholesky, RefactorWithSameSymbolicEqualsFreshFactorization) {
     const auto symbolic = CholeskySymbolic::analyse(L);
     const auto before = CholeskyFactor::factorize(symbolic, L);
 
-    SCOPED_TRACE(kSeed);
-    fill_laplacian(L, cotan_weights(jittered(mesh, kSeed, 0.03)));  // moved vertices
+    SCOPED_TRACE(kCholeskySeed);
+    fill_laplacian(L, cotan_weights(jittered(mesh, kCholeskySeed, 0.03)));  // moved vertices
     ASSERT_TRUE(symbolic->matches(L));
     const auto reused = CholeskyFactor::factorize(symbolic, L);
     const auto fresh = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L);
 
-    const Eigen::MatrixXd B = random_matrix(L.n, 3, kSeed + 1);
+    const Eigen::MatrixXd B = random_matrix(L.n, 3, kCholeskySeed + 1);
     const Eigen::MatrixXd X = reused->solve(B);
     EXPECT_EQ(X, fresh->solve(B));  // same ordering, same arithmetic: same bits
     EXPECT_GT(relative_error(before->solve(B), X), 1e-6);  // the new values were used
@@ -173,7 +173,7 @@ TEST(Cholesky, NonFiniteValuesThrow) {
 TEST(Cholesky, ConcurrentSolvesGiveIdenticalResults) {
     const LaplacianMatrix L = pinned_laplacian(shapes::torus(2.0, 0.5, 80, 40));
     const auto factor = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L);
-    const Eigen::MatrixXd B = random_matrix(L.n, 4, kSeed + 2);
+    const Eigen::MatrixXd B = random_matrix(L.n, 4, kCholeskySeed + 2);
     const Eigen::MatrixXd expected = factor->solve(B);
 
     constexpr int kThreads = 4, kRepeats = 8;
@@ -196,8 +196,8 @@ TEST(Cholesky, ConcurrentFactorizationsShareOneAnalysis) {
     constexpr int kThreads = 3;
     std::vector<LaplacianMatrix> L(kThreads, L0);
     for (int t = 0; t < kThreads; ++t)
-        fill_laplacian(L[t], cotan_weights(jittered(mesh, kSeed + t, 0.01)));
-    const Eigen::MatrixXd B = random_matrix(L0.n, 2, kSeed + 3);
+        fill_laplacian(L[t], cotan_weights(jittered(mesh, kCholeskySeed + t, 0.01)));
+    const Eigen::MatrixXd B = random_matrix(L0.n, 2, kCholeskySeed + 3);
     std::vector<Eigen::MatrixXd> X(kThreads);
     std::vector<std::thread> threads;
     for (int t = 0; t < kThreads; ++t)

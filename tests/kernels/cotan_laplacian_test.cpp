@@ -16,9 +16,9 @@
 namespace holoflow::kernels {
 namespace {
 
-constexpr double kExactTol = 1e-14;  // a few roundings of O(1) cotangents
-constexpr double kSumTol = 1e-12;    // sums over ~10 entries of O(1..100) values
-constexpr std::uint64_t kSeed = 20240611;
+constexpr double kCotTol = 1e-14;     // a few roundings of O(1) cotangents
+constexpr double kRowSumTol = 1e-12;  // sums over ~10 entries of O(1..100) values
+constexpr std::uint64_t kLaplacianSeed = 20240611;
 
 Eigen::SparseMatrix<double> full_matrix(const LaplacianMatrix& L) {
     std::vector<Eigen::Triplet<double>> t;
@@ -61,12 +61,12 @@ TEST(CotanWeights, RightIsoscelesTriangle) {
     const MeshView mesh = right_isosceles();
     const std::vector<double> w = cotan_weights(mesh);
     // Legs face the 45 degree corners (cot = 1, one face: 1/2); the hypotenuse faces 90 degrees.
-    EXPECT_NEAR(w[find_edge(mesh, 0, 1)], 0.5, kExactTol);
-    EXPECT_NEAR(w[find_edge(mesh, 2, 0)], 0.5, kExactTol);
-    EXPECT_NEAR(w[find_edge(mesh, 1, 2)], 0.0, kExactTol);
+    EXPECT_NEAR(w[find_edge(mesh, 0, 1)], 0.5, kCotTol);
+    EXPECT_NEAR(w[find_edge(mesh, 2, 0)], 0.5, kCotTol);
+    EXPECT_NEAR(w[find_edge(mesh, 1, 2)], 0.0, kCotTol);
     const std::vector<double> wl =
         cotan_weights_from_lengths(mesh.halfedge_edge, side_lengths(mesh), mesh.n_edges());
-    for (Index e = 0; e < mesh.n_edges(); ++e) EXPECT_NEAR(wl[e], w[e], kExactTol);
+    for (Index e = 0; e < mesh.n_edges(); ++e) EXPECT_NEAR(wl[e], w[e], kCotTol);
 }
 
 TEST(CotanWeights, RectangularGridHasAspectRatioWeights) {
@@ -81,13 +81,13 @@ TEST(CotanWeights, RectangularGridHasAspectRatioWeights) {
         const double faces = boundary ? 1.0 : 2.0;
         // A leg of length dx faces the angle atan(dx/dy): cot = dy/dx per adjacent triangle.
         if (std::abs(a.y() - b.y()) < 1e-12) {
-            EXPECT_NEAR(w[e], faces * 0.5 * dy / dx, kExactTol) << "edge " << e;
+            EXPECT_NEAR(w[e], faces * 0.5 * dy / dx, kCotTol) << "edge " << e;
             ++n_horizontal;
         } else if (std::abs(a.x() - b.x()) < 1e-12) {
-            EXPECT_NEAR(w[e], faces * 0.5 * dx / dy, kExactTol) << "edge " << e;
+            EXPECT_NEAR(w[e], faces * 0.5 * dx / dy, kCotTol) << "edge " << e;
             ++n_vertical;
         } else {
-            EXPECT_NEAR(w[e], 0.0, kExactTol) << "diagonal edge " << e;  // faces right angles
+            EXPECT_NEAR(w[e], 0.0, kCotTol) << "diagonal edge " << e;  // faces right angles
             ++n_diagonal;
         }
     }
@@ -133,7 +133,7 @@ TEST(CotanWeights, ObtuseTriangleGivesNegativeWeight) {
     const std::vector<double> w = cotan_weights(mesh);
     // Apex angle 2 atan(1/0.2): cot = (0.2^2 - 1) / (2 * 0.2) per face.
     const double cot_apex = (0.2 * 0.2 - 1.0) / (2 * 0.2);
-    EXPECT_NEAR(w[find_edge(mesh, 0, 1)], cot_apex, kExactTol);
+    EXPECT_NEAR(w[find_edge(mesh, 0, 1)], cot_apex, kCotTol);
     EXPECT_LT(w[find_edge(mesh, 0, 1)], 0.0);
 }
 
@@ -157,7 +157,7 @@ TEST(Laplacian, ClosedMeshAnnihilatesConstants) {
         const LaplacianMatrix L = assemble_laplacian(mesh.n_vertices(), mesh.E, w, {});
         const Eigen::VectorXd ones = Eigen::VectorXd::Ones(L.n);
         const Eigen::VectorXd r = full_matrix(L) * ones;
-        EXPECT_LT(r.cwiseAbs().maxCoeff(), kSumTol);
+        EXPECT_LT(r.cwiseAbs().maxCoeff(), kRowSumTol);
         // Not trivially zero: the diagonal carries the weights.
         EXPECT_GT(Eigen::Map<const Eigen::VectorXd>(L.value.data(), L.nonzeros()).norm(), 1.0);
     }
@@ -165,8 +165,8 @@ TEST(Laplacian, ClosedMeshAnnihilatesConstants) {
 
 TEST(Laplacian, LinearPrecisionOnJitteredPlanarGrid) {
     MeshView mesh = shapes::flat_grid(12, 10);
-    std::mt19937_64 rng(kSeed);
-    SCOPED_TRACE(kSeed);
+    std::mt19937_64 rng(kLaplacianSeed);
+    SCOPED_TRACE(kLaplacianSeed);
     std::uniform_real_distribution<double> jitter(-0.2, 0.2);  // times the cell size: no fold
     std::vector<char> boundary(static_cast<std::size_t>(mesh.n_vertices()), 0);
     for (Index h = 0; h < mesh.n_halfedges(); ++h)
@@ -185,7 +185,7 @@ TEST(Laplacian, LinearPrecisionOnJitteredPlanarGrid) {
         const Eigen::VectorXd Lx = A * x;
         for (Index v = 0; v < mesh.n_vertices(); ++v) {
             if (boundary[v]) continue;
-            EXPECT_NEAR(Lx[v], 0.0, kSumTol) << "vertex " << v << " coordinate " << c;
+            EXPECT_NEAR(Lx[v], 0.0, kRowSumTol) << "vertex " << v << " coordinate " << c;
             n_interior += c == 0;
         }
     }
@@ -205,8 +205,8 @@ EdgeMatrix random_edges(Index n, Index n_edges, std::mt19937_64& rng) {
 }
 
 TEST(Laplacian, AssemblyEqualsTripletReference) {
-    std::mt19937_64 rng(kSeed);
-    SCOPED_TRACE(kSeed);
+    std::mt19937_64 rng(kLaplacianSeed);
+    SCOPED_TRACE(kLaplacianSeed);
     const Index n = 40;
     const EdgeMatrix E = random_edges(n, 150, rng);
     std::uniform_real_distribution<double> weight(-1.0, 3.0);
@@ -257,7 +257,7 @@ TEST(Laplacian, AssemblyEqualsTripletReference) {
                 continue;
             }
             ++n_ref;
-            EXPECT_NEAR(L.value[found - L.row.begin()], it.value(), kSumTol)
+            EXPECT_NEAR(L.value[found - L.row.begin()], it.value(), kRowSumTol)
                 << "entry (" << i << ", " << j << ")";
         }
     }
@@ -265,8 +265,8 @@ TEST(Laplacian, AssemblyEqualsTripletReference) {
 }
 
 TEST(Laplacian, QuadraticFormAndOrientationIndependence) {
-    std::mt19937_64 rng(kSeed + 1);
-    SCOPED_TRACE(kSeed + 1);
+    std::mt19937_64 rng(kLaplacianSeed + 1);
+    SCOPED_TRACE(kLaplacianSeed + 1);
     const Index n = 30;
     EdgeMatrix E = random_edges(n, 100, rng);
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
@@ -281,7 +281,7 @@ TEST(Laplacian, QuadraticFormAndOrientationIndependence) {
         double energy = 0;
         for (Index e = 0; e < E.rows(); ++e)
             energy += w[e] * (x[E(e, 0)] - x[E(e, 1)]) * (x[E(e, 0)] - x[E(e, 1)]);
-        EXPECT_NEAR(x.dot(A * x), energy, kSumTol);
+        EXPECT_NEAR(x.dot(A * x), energy, kRowSumTol);
     }
     EdgeMatrix reversed = E.rowwise().reverse();
     const LaplacianMatrix R = assemble_laplacian(n, reversed, w, {});
@@ -295,8 +295,8 @@ TEST(Laplacian, RefillEqualsFreshAssembly) {
     const std::vector<Index> pinned = {0};
     LaplacianMatrix L = assemble_laplacian(mesh.n_vertices(), mesh.E, cotan_weights(mesh), pinned);
     const std::vector<Index> row = L.row, col_start = L.col_start;
-    std::mt19937_64 rng(kSeed + 2);
-    SCOPED_TRACE(kSeed + 2);
+    std::mt19937_64 rng(kLaplacianSeed + 2);
+    SCOPED_TRACE(kLaplacianSeed + 2);
     std::uniform_real_distribution<double> move(-0.05, 0.05);
     for (Index v = 0; v < mesh.n_vertices(); ++v)
         for (int c = 0; c < 3; ++c) mesh.V(v, c) += move(rng);

@@ -17,9 +17,9 @@
 namespace holoflow::kernels {
 namespace {
 
-constexpr double kSolveTol = 1e-10;  // relative to the right-hand side: one direct solve
-constexpr double kSumTol = 1e-12;    // sums of a few O(1) terms per vertex or face
-constexpr std::uint64_t kSeed = 424242;
+constexpr double kResidualTol = 1e-10;  // relative to the right-hand side: one direct solve
+constexpr double kLocalSumTol = 1e-12;  // sums of a few O(1) terms per vertex or face
+constexpr std::uint64_t kFormSeed = 424242;
 
 //! Torus with its grid indices (i around the big circle, j around the tube) recovered from the
 //! positions, then jittered so that no symmetry makes the forms harmonic by accident.
@@ -41,7 +41,7 @@ IndexedTorus indexed_torus(int nu, int nv, double jitter) {
         t.i.push_back(turns(std::atan2(y, x), nu));
         t.j.push_back(turns(std::atan2(z, std::hypot(x, y) - R), nv));
     }
-    std::mt19937_64 rng(kSeed);
+    std::mt19937_64 rng(kFormSeed);
     std::uniform_real_distribution<double> uniform(-jitter, jitter);
     for (Index v = 0; v < t.mesh.n_vertices(); ++v)
         for (int c = 0; c < 3; ++c) t.mesh.V(v, c) += uniform(rng);
@@ -145,8 +145,8 @@ TEST(Codifferential, OfGradientIsLaplacian) {
     const IndexedTorus t = indexed_torus(24, 12, 0.02);
     const std::vector<double> w = cotan_weights(t.mesh);
     const LaplacianMatrix L = assemble_laplacian(t.mesh.n_vertices(), t.mesh.E, w, {});
-    std::mt19937_64 rng(kSeed + 1);
-    SCOPED_TRACE(kSeed + 1);
+    std::mt19937_64 rng(kFormSeed + 1);
+    SCOPED_TRACE(kFormSeed + 1);
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
     Eigen::MatrixXd g(t.mesh.n_vertices(), 2);
     for (Eigen::Index k = 0; k < g.size(); ++k) g.data()[k] = uniform(rng);
@@ -159,13 +159,13 @@ TEST(Codifferential, OfGradientIsLaplacian) {
             if (L.row[s] != j) Lg.row(j) += L.value[s] * g.row(L.row[s]);
         }
     }
-    EXPECT_LT((delta - Lg).cwiseAbs().maxCoeff(), kSumTol * 10);
+    EXPECT_LT((delta - Lg).cwiseAbs().maxCoeff(), kLocalSumTol * 10);
 }
 
 TEST(Gradient, PlusGradientIsCopyThenAddGradient) {
     const IndexedTorus t = indexed_torus(16, 8, 0.02);
-    std::mt19937_64 rng(kSeed + 2);
-    SCOPED_TRACE(kSeed + 2);
+    std::mt19937_64 rng(kFormSeed + 2);
+    SCOPED_TRACE(kFormSeed + 2);
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
     Eigen::MatrixXd f(t.mesh.n_vertices(), 3), eta(t.mesh.n_edges(), 3);
     for (Eigen::Index k = 0; k < f.size(); ++k) f.data()[k] = uniform(rng);
@@ -181,7 +181,7 @@ TEST(HarmonicProjection, TorusFormsBecomeCoclosedInTheirClass) {
     const std::vector<Index> pinned = {0};
     const Solver s = make_solver(t.mesh, pinned);
     const Eigen::MatrixXd eta = angle_forms(t);
-    for (int c = 0; c < 2; ++c) ASSERT_LT(max_face_circulation(t.mesh, eta.col(c)), kSumTol);
+    for (int c = 0; c < 2; ++c) ASSERT_LT(max_face_circulation(t.mesh, eta.col(c)), kLocalSumTol);
 
     const Eigen::MatrixXd omega = harmonic_projection(t.mesh.E, s.w, *s.factor, eta, pinned);
     ASSERT_EQ(omega.rows(), eta.rows());
@@ -192,16 +192,16 @@ TEST(HarmonicProjection, TorusFormsBecomeCoclosedInTheirClass) {
         SCOPED_TRACE(c);
         const double rhs = delta_eta.col(c).cwiseAbs().maxCoeff();
         ASSERT_GT(rhs, 1e-3);  // the jittered forms are far from co-closed
-        EXPECT_LT(delta_omega.col(c).cwiseAbs().maxCoeff(), kSolveTol * rhs);
-        EXPECT_LT(max_face_circulation(t.mesh, omega.col(c)), kSumTol);  // still closed
+        EXPECT_LT(delta_omega.col(c).cwiseAbs().maxCoeff(), kResidualTol * rhs);
+        EXPECT_LT(max_face_circulation(t.mesh, omega.col(c)), kLocalSumTol);  // still closed
         const Eigen::VectorXd difference = omega.col(c) - eta.col(c);
         EXPECT_GT(difference.cwiseAbs().maxCoeff(), 1e-4);  // the projection did something
-        EXPECT_LT(max_exactness_defect(t.mesh, difference), kSumTol * 100);  // same class
+        EXPECT_LT(max_exactness_defect(t.mesh, difference), kLocalSumTol * 100);  // same class
     }
 
     // Harmonic = least weighted energy in the class: adding any gradient costs energy.
-    std::mt19937_64 rng(kSeed + 2);
-    SCOPED_TRACE(kSeed + 2);
+    std::mt19937_64 rng(kFormSeed + 2);
+    SCOPED_TRACE(kFormSeed + 2);
     std::uniform_real_distribution<double> uniform(-0.01, 0.01);
     Eigen::MatrixXd g(t.mesh.n_vertices(), 2);
     for (Eigen::Index k = 0; k < g.size(); ++k) g.data()[k] = uniform(rng);
@@ -212,7 +212,7 @@ TEST(HarmonicProjection, TorusFormsBecomeCoclosedInTheirClass) {
         const double e_other = w.dot(other.col(c).cwiseAbs2());
         // Cross term <omega, dg>_w vanishes, so the excess is exactly the energy of dg.
         const double e_dg = w.dot(gradient(t.mesh.E, g).col(c).cwiseAbs2());
-        EXPECT_NEAR(e_other - e_omega, e_dg, kSolveTol * e_omega);
+        EXPECT_NEAR(e_other - e_omega, e_dg, kResidualTol * e_omega);
         EXPECT_GT(e_dg, 0.0);
     }
 }
@@ -222,8 +222,8 @@ TEST(HarmonicProjection, ClassRepresentativeDoesNotMatter) {
     const std::vector<Index> pinned = {5};
     const Solver s = make_solver(t.mesh, pinned);
     const Eigen::MatrixXd eta = angle_forms(t);
-    std::mt19937_64 rng(kSeed + 3);
-    SCOPED_TRACE(kSeed + 3);
+    std::mt19937_64 rng(kFormSeed + 3);
+    SCOPED_TRACE(kFormSeed + 3);
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
     Eigen::MatrixXd g(t.mesh.n_vertices(), 2);
     for (Eigen::Index k = 0; k < g.size(); ++k) g.data()[k] = uniform(rng);
@@ -231,15 +231,15 @@ TEST(HarmonicProjection, ClassRepresentativeDoesNotMatter) {
     const Eigen::MatrixXd omega = harmonic_projection(t.mesh.E, s.w, *s.factor, eta, pinned);
     const Eigen::MatrixXd shifted =
         harmonic_projection(t.mesh.E, s.w, *s.factor, eta + gradient(t.mesh.E, g), pinned);
-    EXPECT_LT((shifted - omega).norm(), kSolveTol * omega.norm() * 100);  // g is O(1), eta O(0.1)
+    EXPECT_LT((shifted - omega).norm(), kResidualTol * omega.norm() * 100);  // g is O(1), eta O(0.1)
     // Idempotent: a harmonic form projects to itself.
     const Eigen::MatrixXd again = harmonic_projection(t.mesh.E, s.w, *s.factor, omega, pinned);
-    EXPECT_LT((again - omega).norm(), kSolveTol * omega.norm());
+    EXPECT_LT((again - omega).norm(), kResidualTol * omega.norm());
     // Multi-column projection equals one column at a time.
     for (int c = 0; c < 2; ++c) {
         const Eigen::MatrixXd single =
             harmonic_projection(t.mesh.E, s.w, *s.factor, eta.col(c), pinned);
-        EXPECT_LT((single - omega.col(c)).norm(), kSolveTol * omega.col(c).norm());
+        EXPECT_LT((single - omega.col(c)).norm(), kResidualTol * omega.col(c).norm());
     }
 }
 
@@ -247,15 +247,15 @@ TEST(HarmonicProjection, ExactFormsVanishOnGenusTwo) {
     const MeshView mesh = shapes::genus_surface(2, 3);
     const std::vector<Index> pinned = {0};
     const Solver s = make_solver(mesh, pinned);
-    std::mt19937_64 rng(kSeed + 4);
-    SCOPED_TRACE(kSeed + 4);
+    std::mt19937_64 rng(kFormSeed + 4);
+    SCOPED_TRACE(kFormSeed + 4);
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
     Eigen::MatrixXd g(mesh.n_vertices(), 4);
     for (Eigen::Index k = 0; k < g.size(); ++k) g.data()[k] = uniform(rng);
     const Eigen::MatrixXd eta = gradient(mesh.E, g);
     const Eigen::MatrixXd omega = harmonic_projection(mesh.E, s.w, *s.factor, eta, pinned);
     // The class of an exact form is 0, whose harmonic representative is 0.
-    EXPECT_LT(omega.cwiseAbs().maxCoeff(), kSolveTol * eta.cwiseAbs().maxCoeff() * 100);
+    EXPECT_LT(omega.cwiseAbs().maxCoeff(), kResidualTol * eta.cwiseAbs().maxCoeff() * 100);
     EXPECT_THROW(harmonic_projection(mesh.E, s.w, *s.factor, eta.topRows(3), pinned), InvalidInput);
 }
 

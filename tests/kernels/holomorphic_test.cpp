@@ -18,17 +18,17 @@ namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kExactTol = 1e-12;   // exact arithmetic up to rounding
+constexpr double kArithmeticTol = 1e-12;   // exact arithmetic up to rounding
 constexpr double kPeriodTol = 1e-9;   // a-normalisation solves a small dense system
 
 bool in_fundamental_domain(Complex t) {
-    return t.imag() > 0 && std::abs(t.real()) <= 0.5 + kExactTol && std::norm(t) >= 1 - kExactTol;
+    return t.imag() > 0 && std::abs(t.real()) <= 0.5 + kArithmeticTol && std::norm(t) >= 1 - kArithmeticTol;
 }
 
 TEST(ReduceModulus, MapsIntoTheFundamentalDomain) {
-    EXPECT_NEAR(std::abs(reduce_modulus({0, 2}) - Complex(0, 2)), 0, kExactTol);
-    EXPECT_NEAR(std::abs(reduce_modulus({0, 0.5}) - Complex(0, 2)), 0, kExactTol);  // -1/tau
-    EXPECT_NEAR(std::abs(reduce_modulus({3, 1}) - Complex(0, 1)), 0, kExactTol);    // tau - 3
+    EXPECT_NEAR(std::abs(reduce_modulus({0, 2}) - Complex(0, 2)), 0, kArithmeticTol);
+    EXPECT_NEAR(std::abs(reduce_modulus({0, 0.5}) - Complex(0, 2)), 0, kArithmeticTol);  // -1/tau
+    EXPECT_NEAR(std::abs(reduce_modulus({3, 1}) - Complex(0, 1)), 0, kArithmeticTol);    // tau - 3
     // (a tau + b) / (c tau + d) of a reduced point comes back to it.
     const Complex base(0.3, 1.4);
     const Complex moved = (2.0 * base + 1.0) / (3.0 * base + 2.0);  // det 2*2 - 1*3 = 1
@@ -136,7 +136,7 @@ TEST(HolomorphicBasis, NormalisedOnCanonicalCycles) {
     const HolomorphicBasis& b = c.basis;
     ASSERT_EQ(b.genus, 2);
     // Canonical cycles: intersection matrix standard (checked by the kernel) and unimodular.
-    EXPECT_NEAR(std::abs(b.canonical.cast<double>().determinant()), 1.0, kExactTol);
+    EXPECT_NEAR(std::abs(b.canonical.cast<double>().determinant()), 1.0, kArithmeticTol);
 
     const Eigen::MatrixXcd phi = holomorphic_forms(c.harmonic, c.star, b);
     ASSERT_EQ(phi.cols(), 2);
@@ -198,7 +198,7 @@ TEST(Involution, EvenFormsOnADoubleCover) {
     EXPECT_EQ(S * S, Eigen::MatrixXi::Identity(4, 4));  // s is an involution
     EXPECT_NE(S, Eigen::MatrixXi::Identity(4, 4));
     const Eigen::VectorXd d = even_form_coefficients(S);
-    EXPECT_LT((S.transpose().cast<double>() * d - d).norm(), kExactTol);
+    EXPECT_LT((S.transpose().cast<double>() * d - d).norm(), kArithmeticTol);
     EXPECT_GT(d.norm(), 0.1);
     // Integer x: an even integer vector.
     const Eigen::VectorXd di = even_integer_form_coefficients(S);

@@ -25,7 +25,7 @@ namespace {
 
 // Lengths, areas and cotangents are sums of a few rounded products: 1e-12 relative leaves three
 // orders of magnitude over the rounding of meshes with up to ~1e5 faces.
-constexpr double kGeometryTol = 1e-12;
+constexpr double kLengthTol = 1e-12;
 // A cotan weight counts as negative below -kWeightTol times the cotangent scale of its edge (the
 // flip test's own tolerance, 1e-12, plus the rounding of a second, independent evaluation).
 constexpr double kWeightTol = 2e-12;
@@ -157,7 +157,7 @@ TEST(IntrinsicDelaunay, ObtusePillowFlipsToEquilateralLoopTriangles) {
     ASSERT_EQ(r.mesh.n_edges(), 3);
     Index loops = 0;
     for (Index e = 0; e < 3; ++e) {
-        EXPECT_NEAR(r.edge_length[e], 1.0, kGeometryTol) << "edge " << e;
+        EXPECT_NEAR(r.edge_length[e], 1.0, kLengthTol) << "edge " << e;
         loops += r.mesh.E(e, 0) == r.mesh.E(e, 1);
     }
     EXPECT_EQ(loops, 1);
@@ -167,7 +167,7 @@ TEST(IntrinsicDelaunay, ObtusePillowFlipsToEquilateralLoopTriangles) {
         EXPECT_EQ(apex_corners, 2) << "face " << f;
     }
     EXPECT_NEAR(total_area(r.mesh, r.edge_length), total_area(pillow, euclidean_lengths(pillow)),
-                kGeometryTol);
+                kLengthTol);
     expect_exact_differential(r.mesh, r.forms, 0);
 }
 
@@ -243,7 +243,7 @@ TEST(IntrinsicDelaunay, ShearedPlanarGridBecomesPlanarDelaunay) {
     // whose length is the distance of its endpoints, and the faces tile the parallelogram.
     const std::vector<double> straight = euclidean_lengths(m);
     for (Index e = 0; e < m.n_edges(); ++e)
-        ASSERT_NEAR(r.edge_length[e], straight[e], kGeometryTol * straight[e]) << "edge " << e;
+        ASSERT_NEAR(r.edge_length[e], straight[e], kLengthTol * straight[e]) << "edge " << e;
     double signed_area = 0;
     for (Index f = 0; f < m.n_faces(); ++f) {
         const double twice = cross2(m, m.F(f, 0), m.F(f, 1), m.F(f, 2));
@@ -251,8 +251,8 @@ TEST(IntrinsicDelaunay, ShearedPlanarGridBecomesPlanarDelaunay) {
         signed_area += 0.5 * twice;
     }
     const double parallelogram = nx * (ny * height);
-    EXPECT_NEAR(signed_area, parallelogram, kGeometryTol * parallelogram);
-    EXPECT_NEAR(total_area(m, r.edge_length), parallelogram, kGeometryTol * parallelogram);
+    EXPECT_NEAR(signed_area, parallelogram, kLengthTol * parallelogram);
+    EXPECT_NEAR(total_area(m, r.edge_length), parallelogram, kLengthTol * parallelogram);
 
     // Locally Delaunay in a planar triangulation of a convex domain = globally Delaunay.
     Index inside = 0;
@@ -305,7 +305,7 @@ TEST(IntrinsicDelaunay, TwistedTorusIndexFormsKeepTheirWedge) {
     EXPECT_EQ(max_face_sum(r.mesh, r.forms), 0.0);
     EXPECT_TRUE(wedge_matrix(r.mesh, r.forms) == expected) << wedge_matrix(r.mesh, r.forms);
     const double area = total_area(torus, euclidean_lengths(torus));
-    EXPECT_NEAR(total_area(r.mesh, r.edge_length), area, kGeometryTol * area);
+    EXPECT_NEAR(total_area(r.mesh, r.edge_length), area, kLengthTol * area);
 }
 
 TEST(IntrinsicDelaunay, FlipCapStopsEarlyAndReportsIt) {
@@ -320,7 +320,7 @@ TEST(IntrinsicDelaunay, FlipCapStopsEarlyAndReportsIt) {
     EXPECT_GT(capped.non_delaunay_edges, 0);
     const double parallelogram = 8 * (6 * 0.35);
     EXPECT_NEAR(total_area(capped.mesh, capped.edge_length), parallelogram,
-                kGeometryTol * parallelogram);
+                kLengthTol * parallelogram);
     expect_exact_differential(capped.mesh, capped.forms, 0);
     options.max_flips = full.flips;  // exactly enough: finishes without hitting the cap
     const IntrinsicTriangulation exact_cap = intrinsic_delaunay(grid, exact_form(grid), options);
@@ -378,7 +378,7 @@ TEST_P(CorpusIntrinsicDelaunay, RemovesNegativeWeightsAndCarriesFormsExactly) {
               mesh.n_vertices() - mesh.n_edges() + mesh.n_faces());
     EXPECT_TRUE(m.is_closed());
     const double area = total_area(mesh, euclidean_lengths(mesh));
-    EXPECT_NEAR(total_area(m, r.edge_length), area, kGeometryTol * area);
+    EXPECT_NEAR(total_area(m, r.edge_length), area, kLengthTol * area);
 
     // Integer forms: the flip sums are exact, so closedness and the wedge pairing (a cohomology
     // invariant) must hold with ==, not up to a tolerance.
@@ -407,7 +407,7 @@ TEST(IntrinsicDelaunay, SubdividedTurbineStaysExact) {
     EXPECT_EQ(r.non_delaunay_edges, 0);
     EXPECT_EQ(check_intrinsic_weights(r.mesh, r.edge_length).negative, 0);
     const double area = total_area(fine, euclidean_lengths(fine));
-    EXPECT_NEAR(total_area(r.mesh, r.edge_length), area, kGeometryTol * area);
+    EXPECT_NEAR(total_area(r.mesh, r.edge_length), area, kLengthTol * area);
     expect_exact_differential(r.mesh, r.forms, 0);
 }
 

@@ -299,7 +299,7 @@ constexpr double kPlaneTol = 1e-14;     // affine combinations of points on a ti
 
 
 // Regular tetrahedron inscribed in the unit sphere (every vertex has valence 3).
-MeshView tetrahedron() {
+MeshView regular_tetrahedron() {
     PointMatrix V(4, 3);
     V << 1, 1, 1, 1, -1, -1, -1, 1, -1, -1, -1, 1;
     V /= std::sqrt(3.0);
@@ -378,7 +378,7 @@ TEST(SubdivideLoop, IcosahedronMatchesTheInteriorRules) {
 // Tetrahedron: valence 3 (beta = 3/16) and the neighbours of v sum to -v, so v goes to v/4; an
 // edge's opposite corners are the other two, summing to -(a+b), so its vertex lands at (a+b)/4.
 TEST(SubdivideLoop, TetrahedronMatchesTheValenceThreeRule) {
-    const MeshView m = tetrahedron();
+    const MeshView m = regular_tetrahedron();
     const MeshView s = subdivide_loop(m);
     for (Index v = 0; v < m.n_vertices(); ++v)
         EXPECT_LT((s.V.row(v) - 0.25 * m.V.row(v)).norm(), kAnalyticTol);

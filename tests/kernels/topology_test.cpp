@@ -38,7 +38,7 @@ MeshView single_triangle() {
     return make_mesh_view(std::move(V), std::move(F));
 }
 
-MeshView tetrahedron() {
+MeshView corner_tetrahedron() {
     PointMatrix V(4, 3);
     V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
     TriangleMatrix F(4, 3);
@@ -83,7 +83,7 @@ TEST(Topology, SingleTriangleIsADiskWithOneOrderedLoop) {
 }
 
 TEST(Topology, TetrahedronIsAClosedSphere) {
-    const Topology t = compute_topology(tetrahedron());
+    const Topology t = compute_topology(corner_tetrahedron());
     EXPECT_EQ(t.vertices, 4);
     EXPECT_EQ(t.edges, 6);
     EXPECT_EQ(t.faces, 4);
@@ -149,7 +149,7 @@ TEST(Topology, PerforatedSheetHasOneLoopPerHolePlusTheRim) {
 TEST(Topology, ComponentsAreOrderedBySmallestFace) {
     // Interleaved faces: face 0 belongs to the torus, face 1 to the sphere, and so on.
     const MeshView torus = shapes::torus(3.0, 1.0, 6, 4);
-    const MeshView sphere = tetrahedron();
+    const MeshView sphere = corner_tetrahedron();
     const MeshView both = disjoint_union(sphere, torus, /*interleave=*/true);
     const Topology t = compute_topology(both);
     ASSERT_EQ(t.components, 2);
@@ -173,7 +173,7 @@ TEST(Topology, ComponentsAreOrderedBySmallestFace) {
 // torus again, with their faces and vertices in order and their twins.
 TEST(Topology, ComponentMeshesAreThePartsAgain) {
     const MeshView torus = shapes::torus(3.0, 1.0, 6, 4);
-    const MeshView sphere = tetrahedron();
+    const MeshView sphere = corner_tetrahedron();
     const MeshView both = disjoint_union(sphere, torus, /*interleave=*/true);
     const std::vector<MeshView> parts = component_meshes(both, compute_topology(both));
     ASSERT_EQ(parts.size(), 2u);
