@@ -131,7 +131,7 @@ fetch_tbb_source() {
 }
 
 # The test executables are built one per layer in batches of files (tests/CMakeLists.txt,
-# HOLOFLOW_TEST_UNITY): a third less compile time than one per file when built from scratch.
+# HOLOFLOW_TEST_UNITY): a quarter less compile time than one per file when built from scratch.
 configure_and_build() {
   configure "$build" -DCMAKE_BUILD_TYPE=Release -DHOLOFLOW_BUILD_TESTS=ON \
     -DHOLOFLOW_BUILD_BENCH=ON -DHOLOFLOW_TEST_UNITY=ON
