@@ -18,8 +18,8 @@ namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr double kArithmeticTol = 1e-12;   // exact arithmetic up to rounding
-constexpr double kPeriodTol = 1e-9;   // a-normalisation solves a small dense system
+constexpr double kArithmeticTol = 1e-12;  // exact arithmetic up to rounding
+constexpr double kPeriodTol = 1e-9;       // a-normalisation solves a small dense system
 
 bool in_fundamental_domain(Complex t) {
     return t.imag() > 0 && std::abs(t.real()) <= 0.5 + kArithmeticTol && std::norm(t) >= 1 - kArithmeticTol;
