@@ -555,12 +555,14 @@ LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool t
     }
 
     const auto n_v = static_cast<std::int64_t>(soup.n_vertices());
+    const bool repair = options.zero_area_faces == ZeroAreaPolicy::Repair;
     std::vector<std::array<std::int64_t, 3>> triangles;
     triangles.reserve(soup.indices.size() / 3 + 1);
-    std::vector<std::int64_t> sorted;
+    std::vector<std::int64_t> sorted, distinct;
+    std::string first_collapsed;  // what a file of collapsed faces only is refused for
     for (std::size_t p = 0; p < soup.n_polygons(); ++p) {
         const std::int64_t* corner = soup.indices.data() + soup.offsets[p];
-        const std::size_t n = soup.offsets[p + 1] - soup.offsets[p];
+        std::size_t n = soup.offsets[p + 1] - soup.offsets[p];
         if (n < 3)
             fail(MeshErrorKind::DegenerateFace,
                  face_label(p) + " has " + std::to_string(n) + " vertices (at least 3 needed)");
@@ -571,9 +573,28 @@ LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool t
                          " but the file has " + std::to_string(n_v) + " vertices");
         sorted.assign(corner, corner + n);
         std::sort(sorted.begin(), sorted.end());
-        if (auto it = std::adjacent_find(sorted.begin(), sorted.end()); it != sorted.end())
-            fail(MeshErrorKind::RepeatedVertex,
-                 face_label(p) + " uses vertex " + std::to_string(*it) + " twice");
+        if (auto it = std::adjacent_find(sorted.begin(), sorted.end()); it != sorted.end()) {
+            const std::string repeated = face_label(p) + " uses vertex " + std::to_string(*it) + " twice";
+            if (!repair) fail(MeshErrorKind::RepeatedVertex, repeated);
+            // A corner repeated in a row is an edge collapsed already (an STL facet with two
+            // equal corners, once welded): the repair drops that corner, and the face where
+            // fewer than three are left, as a collapse would.
+            distinct.clear();
+            for (std::size_t i = 0; i < n; ++i)
+                if (distinct.empty() || distinct.back() != corner[i]) distinct.push_back(corner[i]);
+            while (distinct.size() > 1 && distinct.back() == distinct.front()) distinct.pop_back();
+            sorted = distinct;
+            std::sort(sorted.begin(), sorted.end());
+            if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+                fail(MeshErrorKind::RepeatedVertex, repeated + ", not in a row (the polygon touches itself)");
+            if (distinct.size() < 3) {
+                ++report.collapsed_faces;
+                if (first_collapsed.empty()) first_collapsed = repeated;
+                continue;
+            }
+            corner = distinct.data();
+            n = distinct.size();
+        }
         if (n > 3) {
             ++report.triangulated_polygons;
             const std::size_t before = triangles.size();
@@ -588,6 +609,7 @@ LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool t
                      " triangles");
     }
 
+    if (triangles.empty()) fail(MeshErrorKind::RepeatedVertex, first_collapsed + ", as does every face");
     if (options.seams == SeamPolicy::Zip)
         report.zipped_vertices = zip_seams(soup, triangles, turn_seams, report.zipped_edges);
 
@@ -618,7 +640,6 @@ LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool t
         }
     }
 
-    const bool repair = options.zero_area_faces == ZeroAreaPolicy::Repair;
     if (repair) {
         repair_zero_area(soup, triangles, report);
         if (triangles.empty()) fail(MeshErrorKind::ZeroAreaFace, "every triangle has zero area");

@@ -626,9 +626,11 @@ PlyHeader parse_ply_header(const char* data, std::size_t size) {
                 p.name = std::string(words[2]);
             }
             h.elements.back().properties.push_back(std::move(p));
-        } else {
+        } else if (!h.elements.empty()) {
             fail(Kind::ParseError, "line ", line, ": unknown PLY header keyword '", key, "'");
         }
+        // Before the first element no line can change how the data reads: an unknown one is a
+        // comment written without its keyword (Blender 2.4's "Created by ..." line).
     }
 }
 

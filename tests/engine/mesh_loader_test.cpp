@@ -235,6 +235,58 @@ TEST(MeshLoader, ZeroAreaTrianglesAreRepairedUnlessRefused) {
     }
 }
 
+// A face that repeats a corner in a row is an edge already collapsed (STL exporters write
+// facets with two equal corners; welding makes them one vertex): the repair drops the repeat,
+// and the face where fewer than three corners are left. A polygon that comes back to a corner
+// later touches itself and stays refused, as is a file of collapsed faces only and, with
+// ZeroAreaPolicy::Refuse, any repeat.
+TEST(MeshLoader, CornersRepeatedInARowAreCollapsed) {
+    // The octahedron with its face {0, 2, 4} written as a pentagon with two repeats in a row
+    // (one across the wrap-around), and four faces of repeats only.
+    const PolygonSoup slivers = soup_of(octahedron().positions, {{0, 2, 2, 4, 0}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                                                 {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5},
+                                                                 {0, 0, 2}, {4, 2, 4}, {5, 5, 5}, {1, 3, 3, 1}});
+    const LoadedMesh m = mesh_from_soup(slivers);
+    EXPECT_EQ(m.report.collapsed_faces, 4u);
+    EXPECT_EQ(m.report.collapsed_edges, 0u);
+    EXPECT_EQ(m.report.triangulated_polygons, 0u);
+    const kernels::Topology t = kernels::compute_topology(*m.mesh);
+    EXPECT_EQ(t.faces, 8);
+    EXPECT_EQ(t.vertices, 6);
+    EXPECT_EQ(t.euler_characteristic, 2);
+    EXPECT_EQ(t.boundary_loops, 0);
+
+    LoadOptions refuse;
+    refuse.zero_area_faces = ZeroAreaPolicy::Refuse;
+    EXPECT_EQ(kind_of(slivers, refuse), MeshErrorKind::RepeatedVertex);
+    PolygonSoup touching = octahedron();
+    for (std::int64_t v : {0, 2, 4, 0, 5, 2}) touching.indices.push_back(v);
+    touching.offsets.push_back(touching.indices.size());
+    EXPECT_EQ(kind_of(touching), MeshErrorKind::RepeatedVertex);
+    EXPECT_EQ(kind_of(soup_of({0, 0, 0, 1, 0, 0}, {{0, 1, 1}, {1, 0, 0, 1}})), MeshErrorKind::RepeatedVertex);
+}
+
+// The same through the STL reader: a tetrahedron with one facet written twice more, once
+// with two equal corners and once with all three, loads as the tetrahedron.
+TEST(MeshLoader, StlFacetsWithEqualCornersAreCollapsed) {
+    const std::array<std::array<double, 3>, 4> p{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+    std::string stl = "solid slivers\n";
+    for (const std::array<int, 3>& f : std::vector<std::array<int, 3>>{{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3},
+                                                                      {1, 1, 2}, {3, 3, 3}}) {
+        stl += "facet normal 0 0 0\nouter loop\n";
+        for (int v : f) stl += "vertex " + std::to_string(p[v][0]) + " " + std::to_string(p[v][1]) + " " +
+                               std::to_string(p[v][2]) + "\n";
+        stl += "endloop\nendfacet\n";
+    }
+    const test::TempDir dir;
+    const LoadedMesh m = load_mesh(dir.write("slivers.stl", stl + "endsolid slivers\n"));
+    EXPECT_EQ(m.report.collapsed_faces, 2u);
+    const kernels::Topology t = kernels::compute_topology(*m.mesh);
+    EXPECT_EQ(t.faces, 4);
+    EXPECT_EQ(t.euler_characteristic, 2);
+    EXPECT_EQ(t.boundary_loops, 0);
+}
+
 // libcgal-demo's degtri_sliding: a disk of 8 triangles, 7 of them flat along one line (corners
 // inside opposite edges). Flips make a disk of 8 proper triangles of it.
 TEST(MeshLoader, CgalDegenerateSlidingMeshIsRepaired) {
@@ -383,8 +435,8 @@ TEST(MeshLoader, SeamsOfInconsistentlyWoundSoupsAreZipped) {
     std::vector<double> p;
     std::vector<std::vector<std::int64_t>> quads;
     const auto corner_at = [](int i, double side) {
-        const double t = 2 * M_PI * i / 5, r = 1 + side * std::cos(t / 2);
-        return std::array<double, 3>{r * std::cos(t), r * std::sin(t), side * std::sin(t / 2)};
+        const double angle = 2 * M_PI * i / 5, r = 1 + side * std::cos(angle / 2);
+        return std::array<double, 3>{r * std::cos(angle), r * std::sin(angle), side * std::sin(angle / 2)};
     };
     for (int i = 0; i < 5; ++i) {
         const double far = i == 4 ? -1 : 1;  // the half twist

@@ -328,6 +328,20 @@ TEST(PlyReader, AsciiWithExtraPropertiesAndUnknownElement) {
     EXPECT_EQ(polygons_of(s), kTetraFaces);
 }
 
+// Blender 2.4 wrote a "Created by ..." line without the comment keyword after the format line.
+// Before the first element a line of no known keyword cannot change how the data reads: it is
+// skipped. Among the elements it could be a property misspelt, and is refused.
+TEST(PlyReader, UnknownLinesBeforeTheFirstElementAreComments) {
+    std::string blender = kPlyTetraAscii;
+    blender.insert(blender.find("comment"), "Created by Blender3D 247 - www.blender.org, source file: \n");
+    const PolygonSoup s = parse_polygon_soup(blender.data(), blender.size(), MeshFormat::Ply);
+    EXPECT_EQ(s.positions, kTetraPositions);
+    EXPECT_EQ(polygons_of(s), kTetraFaces);
+    std::string misspelt = kPlyTetraAscii;
+    misspelt.replace(misspelt.find("property double y"), 8, "propery");
+    EXPECT_EQ(parse_kind(misspelt, MeshFormat::Ply), MeshErrorKind::ParseError);
+}
+
 // The tetrahedron in binary with mixed types, an extra list and an unknown element between.
 std::string binary_tetra_ply(bool big_endian) {
     Bytes b(big_endian);

@@ -57,7 +57,8 @@ struct LoadReport {
     std::size_t welded_vertices = 0;        //!< STL corners merged by position
     std::size_t split_vertices = 0;         //!< vertices added by splitting pinched vertices into fans
     std::size_t collapsed_edges = 0;        //!< zero-area repair: edges whose two ends coincide, merged
-    std::size_t collapsed_faces = 0;        //!< the faces on those edges, gone with them
+    std::size_t collapsed_faces = 0;        //!< the faces on those edges, gone with them, and faces
+                                            //!< left with under 3 corners by dropping a repeat in a row
     std::size_t flipped_edges = 0;          //!< zero-area repair: edges with a corner on them, flipped
     std::size_t duplicate_faces = 0;        //!< on the vertices of an earlier face, dropped
     std::size_t split_edges = 0;            //!< non-manifold edges whose extra faces were detached
