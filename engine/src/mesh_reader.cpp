@@ -1210,6 +1210,10 @@ PolygonSoup parse_polygon_soup(const char* data, std::size_t size, MeshFormat fo
     // Text written by Windows tools may start with a UTF-8 byte order mark (binary STL's header
     // is any 80 bytes: parse_stl skips one only before an ascii "solid").
     const std::size_t bom = format == MeshFormat::Stl ? 0 : utf8_bom_size(data, size);
+    // UTF-16 text (a byte order mark, then every other byte NUL) would fail on its first line.
+    if (format != MeshFormat::Stl && size >= 2 &&
+        (std::memcmp(data, "\xFE\xFF", 2) == 0 || std::memcmp(data, "\xFF\xFE", 2) == 0))
+        fail(Kind::ParseError, "the file is UTF-16 text (it starts with a UTF-16 byte order mark); save it as UTF-8 or ASCII");
     // Classic Mac OS text ends its lines with '\r' alone: OFF and OBJ are read line by line.
     std::string lines;
     if ((format == MeshFormat::Off || format == MeshFormat::Obj) && !std::memchr(data, '\n', size) &&

@@ -598,6 +598,18 @@ TEST(MeshReader, ByteOrderMarkAndOldMacLineEndsAreRead) {
     std::string mac = obj;
     std::replace(mac.begin(), mac.end(), '\n', '\r');
     EXPECT_EQ(polygons_of(parse_polygon_soup(mac.data(), mac.size(), MeshFormat::Obj)), kTetraFaces);
+    // UTF-16 text is named as such, not reported as an unknown statement of NUL bytes.
+    for (const std::string& utf16_bom : {std::string("\xFE\xFF", 2), std::string("\xFF\xFE", 2)}) {
+        std::string utf16 = utf16_bom;
+        for (char c : obj) utf16 += utf16_bom[0] == '\xFE' ? std::string{'\0', c} : std::string{c, '\0'};
+        try {
+            parse_polygon_soup(utf16.data(), utf16.size(), MeshFormat::Obj);
+            ADD_FAILURE() << "UTF-16 text was read";
+        } catch (const MeshError& e) {
+            EXPECT_EQ(e.kind, MeshErrorKind::ParseError);
+            EXPECT_NE(std::string(e.what()).find("UTF-16"), std::string::npos) << e.what();
+        }
+    }
 }
 
 TEST(MeshReader, FileLevelErrors) {
