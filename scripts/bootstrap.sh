@@ -40,6 +40,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev
   libcgal-demo  # real test meshes: /usr/share/doc/libcgal-dev/data.tar.gz
+  assimp-testmodels  # other tools' test files (STL, PLY, OBJ exports): /usr/share/assimp/models
 )
 
 install_packages() {

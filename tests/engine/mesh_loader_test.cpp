@@ -287,6 +287,28 @@ TEST(MeshLoader, StlFacetsWithEqualCornersAreCollapsed) {
     EXPECT_EQ(t.boundary_loops, 0);
 }
 
+// Files of another mesh library's test suite (assimp-testmodels, which the test command
+// installs) that other tools' exports look like: STL spiders with degenerate facets (56 of
+// 1368 with two equal corners), a PLY whose header has Blender 2.4's keyword-less line, and an
+// OBJ saved as UTF-16, refused by name.
+TEST(MeshLoader, OtherLibrariesTestFiles) {
+    const std::string dir = "/usr/share/assimp/models/";
+    if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " missing: install assimp-testmodels";
+    for (const char* spider : {"STL/Spider_ascii.stl", "STL/Spider_binary.stl"}) {
+        const LoadedMesh m = load_mesh(dir + spider);
+        EXPECT_EQ(m.report.collapsed_faces, 56u) << spider;
+        EXPECT_EQ(m.mesh->n_faces(), 1312) << spider;
+    }
+    const LoadedMesh wuson = load_mesh(dir + "PLY/Wuson.ply");
+    EXPECT_EQ(wuson.report.file_polygons, 3732u);
+    try {
+        load_mesh(dir + "OBJ/box_UTF16BE.obj");
+        ADD_FAILURE() << "UTF-16 text was read";
+    } catch (const MeshError& e) {
+        EXPECT_NE(std::string(e.what()).find("UTF-16"), std::string::npos) << e.what();
+    }
+}
+
 // libcgal-demo's degtri_sliding: a disk of 8 triangles, 7 of them flat along one line (corners
 // inside opposite edges). Flips make a disk of 8 proper triangles of it.
 TEST(MeshLoader, CgalDegenerateSlidingMeshIsRepaired) {
