@@ -330,9 +330,10 @@ std::vector<Index> holes_at_failed_fans(const MeshView& surface, const kernels::
 
 // The conformal stage, the zeros and the fans again on a refinement of the traced surface (same
 // shape, same vertex ids); nothing where that fails, would need more memory than allowed (counted
-// in `over_memory_limit`) or has more than max_faces. A try is kept only where fewer regions
-// fail than `failed_now`; where as many fail, its fans leave the flips no region holds
-// (kernels::FanOptions::leftover_folds_below_failed), which change no region's outcome.
+// in `over_memory_limit`) or has more than max_faces. A try is kept only where its failed regions
+// weigh less than `failed_now` (RegularisedForm::failed_weight); where not, its fans leave the
+// flips no region holds
+// (kernels::FanOptions::leftover_folds_below_failed_weight), which change no region's outcome.
 std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options, Index max_faces,
                                                    Index failed_now, Index& over_memory_limit) {
     if (surface.n_faces() > max_faces) return std::nullopt;
@@ -346,7 +347,7 @@ std::optional<SegmentationWork> on_refined_surface(MeshView surface, const Segme
         conformal_stage::run_after_prepare(refined.conformal, nullptr);  // a new pattern: no cache
         locate_zeros(refined);
         kernels::FanOptions fans;
-        fans.leftover_folds_below_failed = failed_now;
+        fans.leftover_folds_below_failed_weight = failed_now;
         refined.result.regular = regularised(refined, fans);
     } catch (const InvalidInput&) {
         return std::nullopt;
@@ -385,11 +386,13 @@ void fans(SegmentationWork& work) {
     const auto tried = [&](const std::optional<SegmentationWork>& refined) {
         if (refined) add_stage_times(refined_conformal, refined->result.conformal.timings_ms);
     };
-    // Kept where fewer regions fail and no artifact is new (a CAD mesh's small part, midpoint
-    // subdivided twice, placed every fan but broke the maximum principle twice).
+    // Kept where less fails (failed regions weighed by order: a coarse CAD plate's zeros of
+    // order 6 and 4 split into simple ones on a refinement, where most fail again, yet fewer
+    // of the zeros) and no artifact is new (a CAD mesh's small part, midpoint subdivided twice,
+    // placed every fan but broke the maximum principle twice).
     const auto keep_if_fewer_fail = [&](std::optional<SegmentationWork> refined, bool refinement = true) {
         if (!refined) return false;
-        if (refined->result.regular.failed_regions >= r.regular.failed_regions ||
+        if (refined->result.regular.failed_weight >= r.regular.failed_weight ||
             refined->result.zeros.artifact_clusters > r.zeros.artifact_clusters)
             return false;
         SegmentationResult& f = refined->result;
@@ -415,7 +418,7 @@ void fans(SegmentationWork& work) {
     const auto midpoint_try = [&] {
         std::optional<SegmentationWork> refined =
             on_refined_surface(kernels::subdivide_midpoint(*r.traced_input), try_options(), max_faces,
-                               r.regular.failed_regions, r.tries_over_memory_limit);
+                               r.regular.failed_weight, r.tries_over_memory_limit);
         tried(refined);
         return refined;
     };
@@ -427,14 +430,14 @@ void fans(SegmentationWork& work) {
             bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular), max_faces);
         std::optional<SegmentationWork> next;
         if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
-            next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.regular.failed_regions,
+            next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.regular.failed_weight,
                                       r.tries_over_memory_limit);
         tried(next);
         // After a midpoint step, a second one competes with a first bisection round that left
         // regions failed; it is kept only where fewer fail on it (it adds more faces).
         if (round == 0 && subdivided && (!next || next->result.regular.failed_regions > 0)) {
             std::optional<SegmentationWork> twice = midpoint_try();
-            if (twice && (!next || twice->result.regular.failed_regions < next->result.regular.failed_regions))
+            if (twice && (!next || twice->result.regular.failed_weight < next->result.regular.failed_weight))
                 next = std::move(twice);
         }
         if (!keep_if_fewer_fail(std::move(next))) break;
@@ -453,7 +456,7 @@ void fans(SegmentationWork& work) {
         kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
         if (filled.holes == 0) break;
         std::optional<SegmentationWork> closed =
-            on_refined_surface(std::move(filled.mesh), try_options(), max_faces, r.regular.failed_regions,
+            on_refined_surface(std::move(filled.mesh), try_options(), max_faces, r.regular.failed_weight,
                                r.tries_over_memory_limit);
         tried(closed);
         if (!keep_if_fewer_fail(std::move(closed), false)) break;
@@ -470,7 +473,7 @@ void fans(SegmentationWork& work) {
         kernels::FanOptions regrow;
         regrow.regrow_failed = true;
         kernels::RegularisedForm regrown = regularised(work, regrow);
-        if (regrown.failed_regions < r.regular.failed_regions) r.regular = std::move(regrown);
+        if (regrown.failed_weight < r.regular.failed_weight) r.regular = std::move(regrown);
     }
     if (r.is_torus()) {  // no zeros; the parallelogram made a rectangle (the paper's affine step)
         const std::array<Complex, 2> period = generator_periods(r);

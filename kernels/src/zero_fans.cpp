@@ -166,6 +166,9 @@ struct Retriangulation {
     }
 };
 
+// What a region left unresolved weighs (RegularisedForm::failed_weight).
+Index region_weight(const ZeroRegion& r) { return std::max(r.order, 1); }
+
 struct Group {
     std::vector<Index> members;  // input regions (none for a leftover fold)
     std::vector<Index> seed_faces;
@@ -220,7 +223,8 @@ class Builder {
             for (std::size_t r = 0; r < groups.size(); ++r) {
                 // The leftovers (after the regions) change no region's outcome: skipped where
                 // the caller does not want them at this many failed regions.
-                if (r == n_regions && pass == 4 && failed_regions(groups) >= options_.leftover_folds_below_failed) break;
+                if (r == n_regions && pass == 4 && failed_weight(groups) >= options_.leftover_folds_below_failed_weight)
+                    break;
                 const bool zeros_pass = pass == 0 || pass == 2;
                 if ((groups[r].order > 0) != zeros_pass || groups[r].absorbed_into >= 0 || groups[r].accepted)
                     continue;
@@ -235,12 +239,14 @@ class Builder {
 
     const std::vector<int>& flips() const { return flip_; }
 
-    // Regions whose group was not accepted, in itself or within another one.
-    Index failed_regions(const std::vector<Group>& groups) const {
-        Index placed = 0;
+    // Regions whose group was not accepted, in itself or within another one, by their weight.
+    Index failed_weight(const std::vector<Group>& groups) const {
+        Index failed = 0;
+        for (const ZeroRegion& r : regions_) failed += region_weight(r);
         for (const Group& g : groups)
-            if (g.accepted) placed += static_cast<Index>(g.members.size());
-        return static_cast<Index>(regions_.size()) - placed;
+            if (g.accepted)
+                for (Index m : g.members) failed -= region_weight(regions_[m]);
+        return failed;
     }
 
  private:
@@ -1230,7 +1236,7 @@ RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion>
         for (Index member : groups[g].members) out.region_vertex[member] = v;
     }
     for (std::size_t r = 0; r < regions.size(); ++r) {
-        if (out.region_vertex[r] < 0) ++out.failed_regions;
+        if (out.region_vertex[r] < 0) ++out.failed_regions, out.failed_weight += region_weight(regions[r]);
         else if (groups[r].absorbed_into >= 0) ++out.merged_regions;
     }
 

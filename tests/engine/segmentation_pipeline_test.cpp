@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <numbers>
@@ -351,14 +352,47 @@ TEST(Segmentation, RepairSpacesOutBorderPointsWhereTheFormVanishes) {
     EXPECT_GT(repaired, 0);
 }
 
-// b9_mesh split from face 2: zero fans fail, and a patch next to them comes out an L
-// (rectangle error 0.105). The curve from its concave corner splits it into rectangles.
+// b9_mesh split from face 2, without fan refinements (a refined surface places its fans):
+// zero fans fail, and patches next to them come out L-shaped. The curves from their concave
+// corners split them into rectangles.
 TEST(Segmentation, LayoutSplitsPatchesAtConcaveCorners) {
     const MeshView mesh = b9_mesh_split(2);  // segment keeps a pointer to its input
-    const SegmentationResult r = segment(mesh);
+    SegmentOptions unrefined;
+    unrefined.fan_refinement_rounds = 0;
+    const SegmentationResult r = segment(mesh, unrefined);
     EXPECT_GT(r.regular.failed_regions, 0);
     EXPECT_GT(r.transversals, 0);
     EXPECT_EQ(r.cut.skipped_segments, 0);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
+    EXPECT_LE(rectangle_error(r), 1e-4);
+}
+
+// A plate with six holes from a CAD export (assimp-testmodels' regr01.obj, the test command
+// installs it: 128 long thin triangles, genus 6): the form's zeros gather into two regions of
+// order 6 and 4 at vertices where many triangles meet, and both fans fail. On its midpoint
+// subdivision they split into 8 regions of simple and double zeros, 7 of which fail: more
+// regions, fewer zeros. The refinement is kept by the failed regions' weight (their zeros),
+// and its bisection round then places every fan; by their count it was not, and the plate
+// came out with a patch of Euler characteristic -2 and 25 flipped uv triangles.
+TEST(Segmentation, FanRefinementsCompareFailedZerosNotRegions) {
+    const std::string file = "/usr/share/assimp/models/OBJ/regr01.obj";
+    if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " missing: install assimp-testmodels";
+    const std::shared_ptr<const MeshView> parts = load_mesh(file).mesh;
+    const std::vector<MeshView> components = kernels::component_meshes(*parts, kernels::compute_topology(*parts));
+    const auto plate = std::find_if(components.begin(), components.end(), [](const MeshView& c) {
+        return c.n_faces() == 128 && kernels::compute_topology(c).genus == 6;
+    });
+    ASSERT_NE(plate, components.end());
+    SegmentOptions unrefined;
+    unrefined.fan_refinement_rounds = 0;
+    const SegmentationResult coarse = segment(*plate, unrefined);
+    EXPECT_EQ(coarse.regular.failed_regions, 2);
+    EXPECT_EQ(coarse.regular.failed_weight, 10);
+    const SegmentationResult r = segment(*plate);
+    EXPECT_GE(r.fan_refinements, 1);
+    EXPECT_EQ(r.regular.failed_regions, 0);
+    EXPECT_EQ(r.zeros.total_order, 10);
     EXPECT_EQ(flipped(r), 0);
     EXPECT_EQ(count_type(r, kernels::PatchInfo::Type::Disk), static_cast<Index>(r.patches.info.size()));
     EXPECT_LE(rectangle_error(r), 1e-4);

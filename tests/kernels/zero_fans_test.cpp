@@ -152,13 +152,14 @@ TEST(ZeroFans, LeftoverFoldsCanBeLeftWithoutChangingWhichRegionsFail) {
     const std::vector<ZeroRegion> regions{fold};
     const RegularisedForm full = regularise_zeros(m, tau, regions);
     FanOptions comparable;
-    comparable.leftover_folds_below_failed = 1;  // kept: none failed
+    comparable.leftover_folds_below_failed_weight = 1;  // kept: none failed
     const RegularisedForm kept = regularise_zeros(m, tau, regions, comparable);
     EXPECT_EQ(kept.flipped_faces, 0);
-    comparable.leftover_folds_below_failed = 0;  // not kept below 0 failed: leftovers skipped
+    comparable.leftover_folds_below_failed_weight = 0;  // not kept below 0 failed: leftovers skipped
     const RegularisedForm partial = regularise_zeros(m, tau, regions, comparable);
     EXPECT_EQ(full.failed_regions, 0);
     EXPECT_EQ(partial.failed_regions, full.failed_regions);
+    EXPECT_EQ(partial.failed_weight, full.failed_weight);
     EXPECT_EQ(full.flipped_faces, 0);
     EXPECT_EQ(check_image(full.mesh, full.tau).flipped, 0);
     EXPECT_GT(partial.flipped_faces, 0);

@@ -29,14 +29,14 @@ struct FanOptions {
     //! which a region touching the boundary along more than one arc cannot be re-triangulated
     //! around. What a region takes changes what the later ones find, so this can also fail more.
     bool regrow_failed = false;
-    //! Flips no region holds become folds of their own, re-triangulated last, where fewer
-    //! regions than this failed; elsewhere they stay flipped. Which regions fail is the same
-    //! either way (a fold that takes in an accepted region places it at the fold's centre, and
-    //! a failed region holds no faces to take in), so a caller that keeps a result only where fewer
-    //! regions fail than in another (the pipeline's refinement tries) skips them where it will
-    //! not keep it. On stretched meshes they are most of the work (kitten x30's bisected try:
-    //! 37.8M of the 39.1M faces developed).
-    Index leftover_folds_below_failed = std::numeric_limits<Index>::max();
+    //! Flips no region holds become folds of their own, re-triangulated last, where the failed
+    //! regions weigh less than this (RegularisedForm::failed_weight); elsewhere they stay
+    //! flipped. Which regions fail is the same either way (a fold that takes in an accepted
+    //! region places it at the fold's centre, and a failed region holds no faces to take in), so
+    //! a caller that keeps a result only where less fails than in another (the pipeline's
+    //! refinement tries) skips them where it will not keep it. On stretched meshes they are
+    //! most of the work (kitten x30's bisected try: 37.8M of the 39.1M faces developed).
+    Index leftover_folds_below_failed_weight = std::numeric_limits<Index>::max();
 };
 
 //! The mesh with each cluster's star re-triangulated as a fan around one vertex at the zero.
@@ -50,6 +50,11 @@ struct RegularisedForm {
     std::vector<Index> region_vertex;
     Index removed_vertices = 0;          //!< input vertices inside fans (replaced by the centre)
     Index failed_regions = 0;            //!< left as they were (counted, their flips remain)
+    //! The failed regions weighed by what they leave unresolved: a zero's order (the zeros it
+    //! stands for), 1 for a fold. Surfaces compare by it: a coarse mesh's zeros of order 6 and 4
+    //! failing (10) are worse than 7 of the 8 simple and double zeros they split into on its
+    //! midpoint subdivision failing (9), though fewer regions fail.
+    Index failed_weight = 0;
     //! Regions re-triangulated within another one (a fold next to a zero joins the zero's).
     Index merged_regions = 0;
     Index flipped_faces = 0;             //!< flipped image triangles left in `mesh`
