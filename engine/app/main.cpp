@@ -314,7 +314,8 @@ int run_batch(const BatchArgs& args) {
     options.threads = args.threads > 0 ? args.threads : std::max(1u, std::thread::hardware_concurrency());
     options.graph = args.settings.graph_options();
     options.graph.max_in_flight = args.max_in_flight > 0 ? args.max_in_flight : 2 * options.threads;
-    options.graph.timeout = std::chrono::milliseconds(static_cast<long long>(args.timeout_s * 1000));
+    // Rounded up: a positive limit under a millisecond is 1 ms, not 0 (no limit).
+    options.graph.timeout = std::chrono::milliseconds(static_cast<long long>(std::ceil(args.timeout_s * 1000)));
     options.settings = args.settings.fingerprint();
     options.force = args.force;
     options.serial = args.serial;
@@ -409,7 +410,10 @@ int main(int argc, char** argv) {
     seg.settings.add_to(*segment);
     segment->add_option("--tips", seg.tips, "closed genus 0 / disks: vertex ids to slice holes at "
                                             "(default: detected extremities)")
-        ->delimiter(',');
+        ->delimiter(',')
+        ->check(CLI::Validator(  // CLI11 reads an empty id as 0
+            [](const std::string& text) { return text.empty() ? std::string("an empty vertex id") : std::string(); },
+            "", "NotEmpty"));
     segment->add_flag("--json", seg.json, "also print segmentation.json to stdout");
 
     BatchArgs batch_args;

@@ -244,7 +244,7 @@ std::int64_t off_count(LineCursor& c, const char* what) {
         fail(Kind::ParseError, "line ", c.line, ": expected the ", what, " count, found ",
              show_token(at, c.end()));
     if (value < 0)
-        fail(Kind::HeaderMismatch, "line ", c.line, ": header claims ", value, " ", what, "s");
+        fail(Kind::HeaderMismatch, "line ", c.line, ": header claims a negative ", what, " count, ", value);
     return value;
 }
 
@@ -263,9 +263,9 @@ PolygonSoup parse_off(const char* data, std::size_t size, bool free_layout) {
     if (!c.skip_to_content()) fail(Kind::EmptyFile, "OFF file holds only comments and blank lines");
 
     // Header keyword [ST][C][N][4][n]OFF; files without it start directly with the counts.
-    if (!is_digit(*c.p) && *c.p != '+') {
-        const char* at = c.p;
-        const std::string_view word = c.take_word();
+    const char* at = c.p;
+    const std::string_view word = c.take_word();
+    if ((!is_digit(*at) && *at != '+') || word.ends_with("OFF")) {
         bool keyword = word.size() >= 3 && word.substr(word.size() - 3) == "OFF";
         std::string_view prefix = keyword ? word.substr(0, word.size() - 3) : std::string_view{};
         bool four = false, ndim = false;
@@ -300,6 +300,8 @@ PolygonSoup parse_off(const char* data, std::size_t size, bool free_layout) {
         }
         if (c.at_line_end() && !c.skip_to_content())
             fail(Kind::Truncated, "file ends after the OFF keyword, before the vertex/face counts");
+    } else {
+        c.p = at;  // no keyword: the counts come first
     }
 
     const std::int64_t n_vertices = off_count(c, "vertex");

@@ -188,6 +188,11 @@ TEST(Cli, OptionValuesOutOfTheirDomainAreRefused) {
     const auto tip = test::run_cli("segment '" + test::corpus("bull.off") + "' -o '" + out + "' --tips 1,90000");
     EXPECT_EQ(tip.status, engine::kExitInvalidInput) << tip.err;
     EXPECT_NE(tip.err.find("tip 90000 is not a vertex of the mesh"), std::string::npos) << tip.err;
+    EXPECT_EQ(test::run_cli("segment '" + mesh + "' -o '" + out + "' --tips ''").status, engine::kExitUsage);
+    // A limit under a millisecond is a limit (it was truncated to 0 ms: none).
+    const auto brief = test::run_cli("batch '" + test::corpus("elephant.off") + "' -o '" + out + "' --timeout 0.0005");
+    EXPECT_NE(brief.status, 0) << brief.err;
+    EXPECT_NE(test::slurp(out + "/summary.csv").find("timeout"), std::string::npos);
 }
 
 // What a command prints must reach stdout: a full device is an output error, not success. And a

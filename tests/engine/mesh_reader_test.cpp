@@ -200,6 +200,11 @@ TEST(OffReader, RefusesFourDimensionalNdimAndBinary) {
     EXPECT_EQ(parse_kind(four, MeshFormat::Off), MeshErrorKind::ParseError);
     EXPECT_EQ(parse_kind(ndim, MeshFormat::Off), MeshErrorKind::ParseError);
     EXPECT_EQ(parse_kind(binary, MeshFormat::Off), MeshErrorKind::ParseError);
+    try {  // named, not read as a vertex count
+        parse_polygon_soup(four.data(), four.size(), MeshFormat::Off);
+    } catch (const MeshError& e) {
+        EXPECT_NE(std::string(e.what()).find("4D"), std::string::npos) << e.what();
+    }
     try {
         parse_polygon_soup(binary.data(), binary.size(), MeshFormat::Off);
     } catch (const MeshError& e) {
