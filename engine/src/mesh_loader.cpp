@@ -474,8 +474,9 @@ Orientation orient(const TriangleMatrix& F, const std::vector<Index>& mate) {
     return o;
 }
 
-// Keeps the vertices that faces use, renumbered in their original order; returns the count dropped.
-std::size_t compact_vertices(PointMatrix& V, TriangleMatrix& F) {
+// Keeps the vertices that faces use, renumbered in their original order, with their file ids
+// (`file_vertex`, per vertex); returns the count dropped.
+std::size_t compact_vertices(PointMatrix& V, TriangleMatrix& F, std::vector<Index>& file_vertex) {
     std::vector<Index> new_index(static_cast<std::size_t>(V.rows()), -1);
     for (Index i = 0; i < F.size(); ++i) new_index[F.data()[i]] = 0;
     Index next = 0;
@@ -485,7 +486,8 @@ std::size_t compact_vertices(PointMatrix& V, TriangleMatrix& F) {
     if (dropped == 0) return 0;
     PointMatrix kept(next, 3);
     for (Index v = 0; v < V.rows(); ++v)
-        if (new_index[v] >= 0) kept.row(new_index[v]) = V.row(v);
+        if (new_index[v] >= 0) kept.row(new_index[v]) = V.row(v), file_vertex[new_index[v]] = file_vertex[v];
+    file_vertex.resize(static_cast<std::size_t>(next));
     for (Index i = 0; i < F.size(); ++i) F.data()[i] = new_index[F.data()[i]];
     V = std::move(kept);
     return dropped;
@@ -494,7 +496,8 @@ std::size_t compact_vertices(PointMatrix& V, TriangleMatrix& F) {
 // Gives every fan of faces around a vertex but the first (by smallest corner) a vertex of its
 // own at the same position; returns how many were added. Corners of one vertex are in one fan
 // when consecutive across a twin: the corner after twin(h) in its face is h's tail again.
-std::size_t split_pinched_vertices(PointMatrix& V, TriangleMatrix& F, const std::vector<Index>& twin) {
+std::size_t split_pinched_vertices(PointMatrix& V, TriangleMatrix& F, const std::vector<Index>& twin,
+                                   std::vector<Index>& file_vertex) {
     const Index n_corners = 3 * static_cast<Index>(F.rows());
     kernels::UnionFind fans(n_corners);
     for (Index h = 0; h < n_corners; ++h)
@@ -519,7 +522,10 @@ std::size_t split_pinched_vertices(PointMatrix& V, TriangleMatrix& F, const std:
     if (copied_from.empty()) return 0;
     const Index old_rows = static_cast<Index>(V.rows());
     V.conservativeResize(old_rows + static_cast<Index>(copied_from.size()), 3);
-    for (std::size_t i = 0; i < copied_from.size(); ++i) V.row(old_rows + static_cast<Index>(i)) = V.row(copied_from[i]);
+    for (std::size_t i = 0; i < copied_from.size(); ++i) {
+        V.row(old_rows + static_cast<Index>(i)) = V.row(copied_from[i]);
+        file_vertex.push_back(file_vertex[copied_from[i]]);
+    }
     return copied_from.size();
 }
 
@@ -662,7 +668,9 @@ LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool t
         for (int k = 0; k < 3; ++k) F(static_cast<Eigen::Index>(t), k) = static_cast<Index>(triangles[t][k]);
     triangles = {};
     // Collapses and zips free one vertex each.
-    report.unreferenced_vertices = compact_vertices(V, F) - report.collapsed_edges - report.zipped_vertices;
+    std::vector<Index> file_vertex(static_cast<std::size_t>(n_v));
+    std::iota(file_vertex.begin(), file_vertex.end(), Index{0});
+    report.unreferenced_vertices = compact_vertices(V, F, file_vertex) - report.collapsed_edges - report.zipped_vertices;
 
     const std::vector<Index> mate = pair_edges(F, static_cast<Index>(V.rows()), options.non_manifold_edges, report.split_edges);
     const Orientation o = orient(F, mate);
@@ -699,13 +707,13 @@ LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool t
     for (Index h = 0; h < 3 * static_cast<Index>(F.rows()); ++h)
         if (new_face[h / 3] >= 0 && mate[h] >= 0) twin[renumber(h)] = renumber(mate[h]);
     F = std::move(oriented);
-    if (keep_component >= 0) compact_vertices(V, F);
-    if (options.pinched_vertices == PinchedVertexPolicy::Split) report.split_vertices = split_pinched_vertices(V, F, twin);
+    if (keep_component >= 0) compact_vertices(V, F, file_vertex);
+    if (options.pinched_vertices == PinchedVertexPolicy::Split)
+        report.split_vertices = split_pinched_vertices(V, F, twin, file_vertex);
 
     try {
-        return {std::make_shared<const MeshView>(
-                    make_mesh_view(std::move(V), std::move(F), std::move(twin))),
-                report};
+        return {std::make_shared<const MeshView>(make_mesh_view(std::move(V), std::move(F), std::move(twin))), report,
+                std::move(file_vertex)};
     } catch (const ConnectivityError& e) {
         // Edges and winding were checked above; only vertex fans remain to go wrong here.
         const MeshErrorKind kind = e.kind == ConnectivityError::Kind::NonManifoldVertex

@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -410,6 +411,50 @@ TEST(Cli, SegmentWithExtrinsicLaplacianCountsZerosOnTheMesh) {
         EXPECT_EQ(report["zero_count"], 2 * genus - 2);
         EXPECT_EQ(report["zero_index_total"], 2 * genus - 2);
     }
+}
+
+// --tips names vertices as the file numbers them, and the report gives them back so: bull with
+// an unreferenced vertex written first (the loader drops it, every id after it moves down)
+// segments as bull at the same tips, one id higher; that vertex itself is refused by name.
+TEST(Cli, TipsAreTheFilesVertexIds) {
+    test::TempDir dir;
+    const std::string bull = test::corpus("bull.off"), out = (dir.path() / "bull").string();
+    const auto detected = test::run_cli("segment '" + bull + "' -o '" + out + "' --json");
+    ASSERT_EQ(detected.status, 0) << detected.err;
+    const std::vector<Index> tips = nlohmann::json::parse(detected.out)["tips"];
+    ASSERT_GE(tips.size(), 2u);
+    std::ifstream in(bull);
+    std::string line, counts;
+    std::getline(in, line);
+    std::getline(in, counts);
+    std::istringstream c(counts);
+    Index n_v = 0, n_f = 0;
+    c >> n_v >> n_f;
+    std::ostringstream moved;
+    moved << "OFF\n" << n_v + 1 << ' ' << n_f << " 0\n9 9 9\n";
+    for (Index v = 0; v < n_v && std::getline(in, line);) {
+        if (line.empty()) continue;
+        moved << line << '\n';
+        ++v;
+    }
+    for (Index f = 0; f < n_f; ++f) {
+        Index k = 0, a = 0, b = 0, d = 0;
+        in >> k >> a >> b >> d;
+        moved << "3 " << a + 1 << ' ' << b + 1 << ' ' << d + 1 << '\n';
+    }
+    const std::string shifted = dir.write("shifted.off", moved.str());
+    std::string ids;
+    for (Index t : tips) ids += (ids.empty() ? "" : ",") + std::to_string(t + 1);
+    const std::string out_shifted = (dir.path() / "shifted").string();
+    const auto given = test::run_cli("segment '" + shifted + "' -o '" + out_shifted + "' --json --tips " + ids);
+    ASSERT_EQ(given.status, 0) << given.err;
+    std::vector<Index> reported = nlohmann::json::parse(given.out)["tips"];
+    for (Index& t : reported) --t;
+    EXPECT_EQ(reported, tips);
+    EXPECT_EQ(test::slurp(out + "/segments.ply"), test::slurp(out_shifted + "/segments.ply"));
+    const auto dropped = test::run_cli("segment '" + shifted + "' -o '" + out_shifted + "' --tips 0," + std::to_string(tips[0] + 1));
+    EXPECT_EQ(dropped.status, 3);
+    EXPECT_NE(dropped.err.find("tip 0 is a vertex the loader dropped"), std::string::npos) << dropped.err;
 }
 
 TEST(Cli, SegmentRefusesBadOptions) {

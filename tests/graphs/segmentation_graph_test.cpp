@@ -124,7 +124,8 @@ TEST(SegmentationGraph, BatchModelsMatchSingleModelRuns) {
 }
 
 // A mesh of several components: each is segmented as if it were a mesh of its own, and the
-// report and folder hold them together.
+// report and folder hold them together. Tips are reported as the file's vertex ids (the
+// component's own ids, alone): the component's vertex at that position.
 TEST(SegmentationGraph, ComponentsAreSegmentedOneByOne) {
     const TempDir dir;
     SegmentationGraphOptions options;
@@ -146,6 +147,11 @@ TEST(SegmentationGraph, ComponentsAreSegmentedOneByOne) {
         nlohmann::json part = report["components"][c];
         alone.erase("timings_ms");
         part.erase("timings_ms");
+        ASSERT_EQ(part["tips"].size(), alone["tips"].size());
+        for (std::size_t t = 0; t < alone["tips"].size(); ++t)
+            EXPECT_EQ(mesh->V.row(part["tips"][t].get<Index>()), parts[c].V.row(alone["tips"][t].get<Index>()));
+        alone.erase("tips");
+        part.erase("tips");
         EXPECT_EQ(part, alone);
         zeros += alone["zero_count"].get<std::int64_t>();
         patches += alone["patch_count"].get<std::int64_t>();

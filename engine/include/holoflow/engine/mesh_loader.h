@@ -72,6 +72,10 @@ struct LoadReport {
 struct LoadedMesh {
     std::shared_ptr<const MeshView> mesh;
     LoadReport report;
+    //! Per vertex of `mesh`: the file's vertex it comes from (vertex ids move as unreferenced
+    //! vertices are dropped and seams or collapsed edges merge vertices; a split pinched vertex's
+    //! copies share its id). What a user names by vertex id (--tips) is a file id.
+    std::vector<Index> file_vertex;
 };
 
 //! Reads, validates and repairs (see README "Input checks"). \throw MeshError.
