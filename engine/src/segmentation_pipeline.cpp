@@ -332,8 +332,8 @@ std::vector<Index> holes_at_failed_fans(const MeshView& surface, const kernels::
 // shape, same vertex ids); nothing where that fails, would need more memory than allowed (counted
 // in `over_memory_limit`) or has more than max_faces. A try is kept only where its failed regions
 // weigh less than `failed_now` (RegularisedForm::failed_weight); where not, its fans leave the
-// flips no region holds
-// (kernels::FanOptions::leftover_folds_below_failed_weight), which change no region's outcome.
+// flips no region holds (kernels::FanOptions::leftover_folds_below_failed_weight), which change
+// no region's outcome.
 std::optional<SegmentationWork> on_refined_surface(MeshView surface, const SegmentOptions& options, Index max_faces,
                                                    Index failed_now, Index& over_memory_limit) {
     if (surface.n_faces() > max_faces) return std::nullopt;
