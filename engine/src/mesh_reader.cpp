@@ -1035,6 +1035,18 @@ void weld_corners(const std::vector<double>& corners, PolygonSoup& soup) {
     soup.welded_vertices = n_corners - soup.n_vertices();
 }
 
+//! Whether `text` holds `word` (any case) as a whole whitespace-separated token.
+bool contains_word_nocase(std::string_view text, std::string_view word) {
+    std::size_t i = 0;
+    while (i < text.size()) {
+        while (i < text.size() && is_space(text[i])) ++i;
+        const std::size_t b = i;
+        while (i < text.size() && !is_space(text[i])) ++i;
+        if (equal_nocase(text.substr(b, i - b), word)) return true;
+    }
+    return false;
+}
+
 std::vector<double> parse_stl_ascii(const char* data, std::size_t size) {
     const char* p = data;
     const char* end = data + size;
@@ -1046,8 +1058,21 @@ std::vector<double> parse_stl_ascii(const char* data, std::size_t size) {
         while (p < end && !is_space(*p)) ++p;
         return {b, static_cast<std::size_t>(p - b)};
     };
-    auto rest_of_line = [&]() {
-        while (p < end && *p != '\n') ++p;
+    // A solid's name is free text to the end of its line, but files written all on one line
+    // go on with the facets there: the name stops before a keyword that starts the next item.
+    auto skip_name = [&](std::initializer_list<std::string_view> next_items) {
+        for (;;) {
+            while (p < end && *p != '\n' && is_space(*p)) ++p;
+            if (p == end || *p == '\n') return;
+            const char* b = p;
+            while (p < end && !is_space(*p)) ++p;
+            const std::string_view word(b, static_cast<std::size_t>(p - b));
+            for (const std::string_view item : next_items)
+                if (equal_nocase(word, item)) {
+                    p = b;
+                    return;
+                }
+        }
     };
     auto number = [&](std::size_t facet) {
         for (; p < end && is_space(*p); ++p)
@@ -1078,13 +1103,21 @@ std::vector<double> parse_stl_ascii(const char* data, std::size_t size) {
     std::size_t facet = 0;
     if (!equal_nocase(next(), "solid"))
         fail(Kind::ParseError, "line 1: ascii STL starts with 'solid'");
-    rest_of_line();
+    skip_name({"facet", "endsolid"});
     for (;;) {
         const char* at = p;
         const std::string_view word = next();
         if (word.empty()) break;  // a missing final endsolid is tolerated
-        if (equal_nocase(word, "endsolid") || equal_nocase(word, "solid")) {
-            rest_of_line();
+        if (equal_nocase(word, "solid")) {
+            skip_name({"facet", "endsolid"});
+            continue;
+        }
+        if (equal_nocase(word, "endsolid")) {
+            skip_name({"solid"});
+            // Some exporters pad the file with NUL bytes after the last solid.
+            const char* q = p;
+            while (q < end && (*q == '\0' || is_space(*q))) ++q;
+            if (q == end) break;
             continue;
         }
         if (!equal_nocase(word, "facet")) {
@@ -1139,14 +1172,18 @@ PolygonSoup parse_stl(const char* data, std::size_t size) {
     const std::uint64_t expected = 84 + 50 * count;
     std::vector<double> corners;
     if (size < 84 || expected != size) {
-        // Not binary by size; ascii if it says "solid" and holds no NUL byte (binary STL almost
-        // always has zero attribute bytes, and a binary header may also start with "solid").
+        // Not binary by size. A binary header may also start with "solid", but binary STL
+        // almost always holds NUL bytes (zero attribute words) early on: the file is ascii if
+        // it starts with "solid" and its first NUL, if any, comes after a facet or endsolid.
         const std::size_t bom = utf8_bom_size(data, size);
         const char* p = data + bom;
         while (p < data + size && is_space(*p)) ++p;
         const bool solid = data + size - p >= 5 && equal_nocase(std::string_view(p, 5), "solid");
-        const bool nul = std::memchr(data, 0, size) != nullptr;
-        if (solid && !nul) {
+        const char* nul = static_cast<const char*>(std::memchr(data, 0, size));
+        const std::string_view before_nul(p, static_cast<std::size_t>((nul ? nul : data + size) - p));
+        const bool ascii = solid && (!nul || contains_word_nocase(before_nul, "facet") ||
+                                     contains_word_nocase(before_nul, "endsolid"));
+        if (ascii) {
             corners = parse_stl_ascii(data + bom, size - bom);
         } else if (size < 84) {
             fail(Kind::Truncated, "binary STL needs an 84-byte header, file has ", size, " bytes");

@@ -561,6 +561,24 @@ TEST(StlReader, BinaryTetrahedronIsWeldedEvenWithSolidHeader) {
     }
 }
 
+// Some exporters write the whole file on one line, or the first facet on the solid's line; the
+// solid's name then stops before the keyword that starts the next item.
+TEST(StlReader, AsciiFacetsOnTheSolidLineAreRead) {
+    std::string one_line = ascii_stl_tetra();
+    std::replace(one_line.begin(), one_line.end(), '\n', ' ');
+    EXPECT_EQ(polygons_of(parse_polygon_soup(one_line.data(), one_line.size(), MeshFormat::Stl)),
+              (Polygons{{0, 1, 2}, {0, 2, 3}, {0, 3, 1}, {2, 1, 3}}));
+    const std::string two_solids = "solid a facet normal 0 0 1 outer loop vertex 0 0 0 "
+                                   "vertex 1 0 0 vertex 0 1 0 endloop endfacet endsolid a "
+                                   "solid b facet outer loop vertex 0 0 0 vertex 0 1 0 "
+                                   "vertex 0 0 1 endloop endfacet endsolid b";
+    EXPECT_EQ(polygons_of(parse_polygon_soup(two_solids.data(), two_solids.size(), MeshFormat::Stl)),
+              (Polygons{{0, 1, 2}, {0, 2, 3}}));
+    // NUL padding after the last endsolid is not data (and does not make the file binary).
+    const std::string padded = ascii_stl_tetra() + std::string(37, '\0');
+    EXPECT_EQ(parse_polygon_soup(padded.data(), padded.size(), MeshFormat::Stl).n_polygons(), 4u);
+}
+
 TEST(StlReader, Errors) {
     const test::TempDir dir;
     const std::string full = binary_stl_tetra("binary");
@@ -579,6 +597,15 @@ TEST(StlReader, Errors) {
     EXPECT_EQ(parse_kind(four_vertices, MeshFormat::Stl), MeshErrorKind::ParseError);
     const std::string ascii_cut = "solid q\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n";
     EXPECT_EQ(parse_kind(ascii_cut, MeshFormat::Stl), MeshErrorKind::Truncated);
+    // Bytes after endsolid that are not another solid are named, even binary ones.
+    const std::string trailing = ascii_stl_tetra() + std::string("\x01\x00junk", 6);
+    try {
+        parse_polygon_soup(trailing.data(), trailing.size(), MeshFormat::Stl);
+        ADD_FAILURE() << "trailing bytes were accepted";
+    } catch (const MeshError& e) {
+        EXPECT_EQ(e.kind, MeshErrorKind::ParseError);
+        EXPECT_NE(e.detail.find("expected 'facet' or 'endsolid'"), std::string::npos) << e.detail;
+    }
     std::string empty_binary(80, ' ');
     empty_binary += std::string(4, '\0');
     EXPECT_EQ(parse_kind(empty_binary, MeshFormat::Stl), MeshErrorKind::EmptyFile);
