@@ -16,9 +16,11 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include "holoflow/engine/conformal_pipeline.h"
+#include "holoflow/engine/memory_limits.h"
 #include "holoflow/engine/mesh_loader.h"
 #include "holoflow/engine/output.h"
 #include "holoflow/engine/report.h"
@@ -57,17 +59,11 @@ int run_guarded(const std::function<int()>& body) {
 }
 
 // Memory the process may use: physical memory, or the cgroup's limit where that is lower.
-std::size_t available_memory_bytes() {
-    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-    std::size_t bytes = pages > 0 && page > 0 ? static_cast<std::size_t>(pages) * static_cast<std::size_t>(page) : 0;
-    std::ifstream cgroup("/sys/fs/cgroup/memory.max");
-    std::size_t limit = 0;
-    if (cgroup >> limit && limit > 0 && (bytes == 0 || limit < bytes)) bytes = limit;  // "max" reads as no number
-    return bytes;
-}
+// What the address-space limit leaves the solver: set by main before a solving command runs.
+engine::AddressSpacePlan solver_address_space;
 
-// The memory limit without --max-memory: 3/4 of what the process may use.
-std::size_t default_memory_limit_bytes() { return available_memory_bytes() / 4 * 3; }
+// The memory limit without --max-memory.
+std::size_t default_memory_limit_bytes() { return engine::default_memory_limit_bytes(solver_address_space); }
 
 // Loading options of every subcommand.
 struct LoadArgs {
@@ -182,7 +178,7 @@ struct SegmentSettings {
     LoadArgs load;
     std::string mode = "layout", laplacian = "intrinsic";
     std::size_t max_memory_mb = 0;
-    CLI::Option* max_memory = nullptr;  // not given: 3/4 of the machine's memory
+    CLI::Option* max_memory = nullptr;  // not given: default_memory_limit_bytes()
     int max_tips = 8;
     double hole_size = 0.02;
     int fan_refinements = 3;
@@ -201,7 +197,7 @@ struct SegmentSettings {
                                         "MiB the conformal stage may use: a model that would need more is refused "
                                         "and a refinement that would is skipped; models computed at once share it, "
                                         "and one over its share is computed again alone (0: no limit; default: "
-                                        "3/4 of the memory)")
+                                        "3/4 of the memory, or of the address space `ulimit -v` leaves)")
                          ->check(CLI::Range(std::size_t{0}, std::size_t{1} << 30));
         command.add_option("--max-tips", max_tips, "most tips detected automatically")
             ->check(CLI::Range(2, 64));
@@ -348,38 +344,50 @@ int run_batch(const BatchArgs& args) {
     return failed == 0 ? 0 : engine::kExitBatchFailures;
 }
 
-// The jobs run on transparent huge pages: glibc's malloc asks for them where its tunable
-// glibc.malloc.hugetlb=1 is set, which only the environment at start-up can do, so the process
-// starts itself again with it (once: the tunable is then set). The large dense #E x 2g form
-// matrices and factors otherwise fault in 4 KiB at a time, and page faults cost: on a
-// paravirtualised 2-vCPU machine, 2.4M faults made 18 of the 31 s of a holed mesh's
-// segmentation (15 s with huge pages) and the corpus batch took 70 s instead of 33 s;
-// results are byte-identical. HOLOFLOW_HUGE_PAGES=0, or any GLIBC_TUNABLES naming the tunable,
-// leaves the process as started, and so does running under valgrind (its tools would lose the
-// restarted process); where the exec fails it goes on without.
-void restart_on_huge_pages(int argc, char** argv) {
-    if (argc < 2 || std::strncmp(argv[1], "-", 1) == 0 || std::strcmp(argv[1], "info") == 0) return;  // light jobs
-    const char* opt_out = std::getenv("HOLOFLOW_HUGE_PAGES");
-    if (opt_out != nullptr && std::strcmp(opt_out, "0") == 0) return;
+// Two settings only the environment at start-up can make, so the process starts itself again
+// with them (once: they are then set); where the exec fails it goes on without.
+// * OPENBLAS_NUM_THREADS=1: BLAS runs on its caller's thread anyway (kernels::pin_blas_threads),
+//   and at 1 OpenBLAS starts no thread of its own when loaded. That thread maps a 128 MiB work
+//   buffer at once, and under an address-space limit that leaves no room for it, it retries
+//   forever: even --version hung under `ulimit -v 150000`.
+// * The solving jobs run on transparent huge pages: glibc's malloc asks for them where its tunable
+//   glibc.malloc.hugetlb=1 is set. The large dense #E x 2g form matrices and factors otherwise
+//   fault in 4 KiB at a time, and page faults cost: on a paravirtualised 2-vCPU machine, 2.4M
+//   faults made 18 of the 31 s of a holed mesh's segmentation (15 s with huge pages) and the
+//   corpus batch took 70 s instead of 33 s; results are byte-identical. HOLOFLOW_HUGE_PAGES=0,
+//   or any GLIBC_TUNABLES naming the tunable, leaves the tunable as it is.
+// Under valgrind nothing restarts (its tools would lose the restarted process).
+void restart_with_startup_settings(int argc, char** argv) {
     const char* preload = std::getenv("LD_PRELOAD");
     if (preload != nullptr && std::strstr(preload, "vgpreload") != nullptr) return;
+    const char* blas_threads = std::getenv("OPENBLAS_NUM_THREADS");
+    const bool set_blas_threads = blas_threads == nullptr || std::strcmp(blas_threads, "1") != 0;
+    const bool light = argc < 2 || std::strncmp(argv[1], "-", 1) == 0 || std::strcmp(argv[1], "info") == 0;
+    const char* opt_out = std::getenv("HOLOFLOW_HUGE_PAGES");
     const char* tunables = std::getenv("GLIBC_TUNABLES");
     const std::string before = tunables != nullptr ? tunables : "";
-    if (before.find("glibc.malloc.hugetlb") != std::string::npos) return;
+    const bool set_huge_pages = !light && !(opt_out != nullptr && std::strcmp(opt_out, "0") == 0) &&
+                                before.find("glibc.malloc.hugetlb") == std::string::npos;
+    if (!set_blas_threads && !set_huge_pages) return;
     std::error_code error;
     const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
     if (error) return;
+    const std::string blas_before = blas_threads != nullptr ? blas_threads : "";
+    if (set_blas_threads && setenv("OPENBLAS_NUM_THREADS", "1", 1) != 0) return;
     const std::string with = before.empty() ? "glibc.malloc.hugetlb=1" : before + ":glibc.malloc.hugetlb=1";
-    if (setenv("GLIBC_TUNABLES", with.c_str(), 1) != 0) return;
+    if (set_huge_pages && setenv("GLIBC_TUNABLES", with.c_str(), 1) != 0) return;
     execv(self.c_str(), argv);
-    if (tunables != nullptr) setenv("GLIBC_TUNABLES", before.c_str(), 1);  // exec failed
+    // The exec failed: the environment as it was.
+    if (blas_threads != nullptr) setenv("OPENBLAS_NUM_THREADS", blas_before.c_str(), 1);
+    else unsetenv("OPENBLAS_NUM_THREADS");
+    if (tunables != nullptr) setenv("GLIBC_TUNABLES", before.c_str(), 1);
     else unsetenv("GLIBC_TUNABLES");
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    restart_on_huge_pages(argc, argv);
+    restart_with_startup_settings(argc, argv);
     CLI::App app{"holoflow: holomorphic flow segmentation of triangle meshes"};
     app.set_version_flag("--version", std::string("holoflow ") + HOLOFLOW_VERSION);
     app.require_subcommand(1);
@@ -455,6 +463,15 @@ int main(int argc, char** argv) {
     }
 
     if (info->parsed()) return run_guarded([&] { return run_info(info_mesh, info_json); });
+    // Every other command solves: under an address-space limit, plan it before any work.
+    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    const int planned = run_guarded([&] {
+        solver_address_space = engine::plan_address_space(batch->parsed() && batch_args.threads > 0 ? batch_args.threads : cores);
+        batch_args.threads = solver_address_space.threads;
+        return 0;
+    });
+    if (planned != 0) return planned;
+    const tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, solver_address_space.threads);
     if (conformal->parsed())
         return run_guarded([&] {
             return run_conformal(conformal_mesh, conformal_out, conformal_laplacian, conformal_json);

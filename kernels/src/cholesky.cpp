@@ -12,6 +12,8 @@
 
 extern "C" void openblas_set_num_threads(int);
 extern "C" void omp_set_max_active_levels(int);  // libgomp, which Debian's CHOLMOD is built with
+extern "C" void* blas_memory_alloc(int);  // OpenBLAS's buffer pool (exported, undocumented)
+extern "C" void blas_memory_free(void*);
 
 namespace holoflow::kernels {
 namespace {
@@ -30,6 +32,17 @@ void pin_blas_threads() {
     }();
     (void)no_openmp_teams;
 }
+
+}  // namespace
+
+void reserve_blas_work_buffers(int count) {
+    pin_blas_threads();
+    std::vector<void*> buffers;
+    for (int k = 0; k < count; ++k) buffers.push_back(blas_memory_alloc(0));  // all held at once
+    for (void* buffer : buffers) blas_memory_free(buffer);  // back in the pool, still mapped
+}
+
+namespace {
 
 //! A configured cholmod_common. Not thread-safe, so each call builds its own: start/finish only
 //! set fields and free workspace (well under a microsecond next to any solve).

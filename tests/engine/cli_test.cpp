@@ -539,5 +539,34 @@ TEST(Cli, MaxMemoryRefusesAModelOverIt) {
     }
 }
 
+// Under an address-space limit (`ulimit -v`) OpenBLAS retries a work buffer it cannot map
+// forever: the process must refuse cleanly where the limit is too small, run where it is not,
+// and never hang (`timeout` turns a hang into exit status 124). Sanitizers reserve terabytes of
+// address space and cannot run under such a limit.
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+TEST(Cli, AddressSpaceLimitIsRefusedOrHonouredNeverHangs) {
+    test::TempDir dir;
+    const auto run = [&](int limit_mib, const std::string& args) {
+        const std::string err = (dir.path() / "err").string();
+        const std::string command = "ulimit -v " + std::to_string(limit_mib << 10) + " && exec timeout 120 '" +
+                                    HOLOFLOW_CLI + "' " + args + " >/dev/null 2>'" + err + "'";
+        const int raw = std::system(("sh -c \"" + command + "\"").c_str());
+        return std::make_pair(WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, test::slurp(err));
+    };
+    const std::string mesh = "'" + test::corpus("eight.off") + "'";
+    EXPECT_EQ(run(150, "--version").first, 0);
+    EXPECT_EQ(run(150, "info " + mesh).first, 0);
+    for (const int limit : {150, 250}) {
+        const auto [status, err] = run(limit, "segment " + mesh + " -o '" + (dir.path() / "a").string() + "'");
+        EXPECT_EQ(status, engine::kExitResourceLimit) << limit << " MiB: " << err;
+        EXPECT_NE(err.find("address-space limit (ulimit -v) of " + std::to_string(limit) + " MiB"), std::string::npos)
+            << err;
+    }
+    const auto [status, err] = run(1024, "batch " + mesh + " -o '" + (dir.path() / "b").string() + "' --threads 2");
+    EXPECT_EQ(status, 0) << err;
+    EXPECT_TRUE(std::filesystem::exists(dir.path() / "b" / "eight" / "segmentation.json"));
+}
+#endif
+
 }  // namespace
 }  // namespace holoflow

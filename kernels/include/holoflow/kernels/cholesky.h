@@ -9,6 +9,17 @@
 
 namespace holoflow::kernels {
 
+//! Address space of one OpenBLAS work buffer on x86-64 (its BUFFER_SIZE, 32 << 22 bytes).
+constexpr std::size_t kBlasWorkBufferBytes = std::size_t{128} << 20;
+//! Work buffers one factorization or solve holds at once (a level-3 call takes two).
+constexpr int kBlasWorkBuffersPerThread = 2;
+
+//! \brief Makes OpenBLAS map `count` work buffers now and keep them for its later calls.
+//! Under an address-space limit OpenBLAS 0.3.21 retries a buffer it cannot map forever (fixed
+//! upstream in 0.3.30): taken at start-up, while the space is free, the buffers are reused by
+//! every later call on any thread. The caller checks first that `count` buffers fit.
+void reserve_blas_work_buffers(int count);
+
 //! Symbolic analysis (AMD ordering, supernodal structure) of a sparse Cholesky factorization:
 //! reusable for every matrix with the same pattern (pose collections refactor numerically only).
 //! Immutable after analyse(); any number of threads may factorize with it at once.
