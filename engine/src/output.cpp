@@ -37,6 +37,11 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kTemporaryTag = ".tmp";  // temporaries are .<name>.tmp<pid>
+constexpr const char* kBackupTag = ".old";     // a set's old files during its commit: .<name>.old<pid>
+
+fs::path hidden_name(const fs::path& path, const char* tag) {
+    return path.parent_path() / ("." + path.filename().string() + tag + std::to_string(::getpid()));
+}
 
 bool process_running(long pid) {
     return pid > 0 && pid <= std::numeric_limits<pid_t>::max() &&
@@ -45,11 +50,7 @@ bool process_running(long pid) {
 
 // Streams `write` into the temporary of `path` and returns its name; on failure nothing is left.
 fs::path write_temporary(const fs::path& path, const std::function<void(std::ostream&)>& write) {
-    std::string name = ".";
-    name += path.filename().string();
-    name += kTemporaryTag;
-    name += std::to_string(::getpid());
-    const fs::path temporary = path.parent_path() / name;
+    const fs::path temporary = hidden_name(path, kTemporaryTag);
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     try {
         if (out) write(out);
@@ -84,17 +85,18 @@ void remove_stale_temporaries(const fs::path& folder, const std::vector<std::str
     std::error_code ec;
     for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
         const std::string file = it->path().filename().string();
-        for (const std::string& name : names) {
-            const std::string prefix = "." + name + kTemporaryTag;
-            if (file.size() <= prefix.size() || file.compare(0, prefix.size(), prefix) != 0 ||
-                file.size() - prefix.size() > 18 ||
-                file.find_first_not_of("0123456789", prefix.size()) != std::string::npos)
-                continue;
-            // Another run writing into this folder right now keeps its temporary.
-            if (process_running(std::stol(file.substr(prefix.size())))) continue;
-            std::error_code ignored;
-            fs::remove(it->path(), ignored);
-        }
+        for (const std::string& name : names)
+            for (const char* tag : {kTemporaryTag, kBackupTag}) {
+                const std::string prefix = "." + name + tag;
+                if (file.size() <= prefix.size() || file.compare(0, prefix.size(), prefix) != 0 ||
+                    file.size() - prefix.size() > 18 ||
+                    file.find_first_not_of("0123456789", prefix.size()) != std::string::npos)
+                    continue;
+                // Another run writing into this folder right now keeps its files.
+                if (process_running(std::stol(file.substr(prefix.size())))) continue;
+                std::error_code ignored;
+                fs::remove(it->path(), ignored);
+            }
     }
 }
 
@@ -118,12 +120,39 @@ void FileSet::add(const fs::path& path, const std::string& content) {
 void FileSet::commit() {
     if (staged_.empty()) return;
     std::error_code ec;
-    fs::remove(staged_.back().path, ec);  // the old marker goes first: the old set is no longer whole
-    while (!staged_.empty()) {
-        const Staged next = staged_.front();
-        staged_.erase(staged_.begin());
-        move_into_place(next.temporary, next.path);
+    // Nothing is touched where a file cannot take its place (a folder of that name, a device).
+    for (const Staged& s : staged_) {
+        const fs::file_status status = fs::symlink_status(s.path, ec);
+        if (fs::exists(status) && !fs::is_regular_file(status) && !fs::is_symlink(status))
+            throw OutputError("cannot write '" + s.path.string() + "': a folder or special file is in its place");
     }
+    // The old files move aside, the marker's first (the old set is then no longer claimed whole),
+    // and the new ones move in; where a move fails, the old set is put back as it was.
+    std::vector<Staged> aside;  // {backup, path}
+    std::vector<fs::path> placed;
+    auto move_aside = [&](const fs::path& path) {
+        if (!fs::exists(fs::symlink_status(path, ec))) return;
+        const fs::path backup = hidden_name(path, kBackupTag);
+        fs::rename(path, backup, ec);
+        if (ec) throw OutputError("cannot move the old '" + path.string() + "' aside");
+        aside.push_back({backup, path});
+    };
+    try {
+        move_aside(staged_.back().path);
+        for (const Staged& s : staged_) {
+            if (&s != &staged_.back()) move_aside(s.path);
+            fs::rename(s.temporary, s.path, ec);
+            if (ec) throw OutputError("cannot move the finished '" + s.path.string() + "' into place");
+            placed.push_back(s.path);
+        }
+    } catch (...) {
+        std::error_code ignored;
+        for (const fs::path& path : placed) fs::remove(path, ignored);
+        for (auto it = aside.rbegin(); it != aside.rend(); ++it) fs::rename(it->temporary, it->path, ignored);
+        throw;  // the destructor removes the temporaries
+    }
+    for (const Staged& old : aside) fs::remove(old.temporary, ec);
+    staged_.clear();
 }
 
 OutputFolder::OutputFolder(fs::path folder) : folder_(std::move(folder)) {

@@ -48,19 +48,40 @@ TEST(FileSet, AFailedSetLeavesTheEarlierOneWholeAndNoTemporaries) {
     EXPECT_EQ(slurp(dir.path() / "marker.json"), "new");
 }
 
-TEST(FileSet, TheOldMarkerGoesBeforeAnyFileIsReplaced) {
+TEST(FileSet, AFolderInAFilesPlaceStopsTheCommitBeforeAnyChange) {
     const TempDir dir;
     write_set(dir.path(), "old");
-    // A rename that fails half way (b's place became a folder): the new a.txt is in place, the
-    // new marker is not, and the old marker no longer claims the set.
     FileSet files;
     files.add(dir.path() / "a.txt", "new");
     files.add(dir.path() / "b", "new");
     files.add(dir.path() / "marker.json", "new");
     fs::create_directories(dir.path() / "b" / "in the way");
-    EXPECT_THROW(files.commit(), OutputError);
-    EXPECT_EQ(slurp(dir.path() / "a.txt"), "new");
-    EXPECT_FALSE(fs::exists(dir.path() / "marker.json"));
+    try {
+        files.commit();
+        ADD_FAILURE() << "committed over a folder";
+    } catch (const OutputError& e) {
+        EXPECT_NE(std::string(e.what()).find("a folder or special file is in its place"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(slurp(dir.path() / "a.txt"), "old");
+    EXPECT_EQ(slurp(dir.path() / "marker.json"), "old");
+    EXPECT_TRUE(fs::exists(dir.path() / "b" / "in the way"));
+}
+
+TEST(FileSet, ARenameThatFailsHalfWayPutsTheOldSetBack) {
+    const TempDir dir;
+    write_set(dir.path(), "old");
+    dir.write("b", "old");
+    {
+        FileSet files;
+        files.add(dir.path() / "a.txt", "new");
+        files.add(dir.path() / "b", "new");
+        files.add(dir.path() / "marker.json", "new");
+        // b's temporary vanishes (as if removed by hand): its rename fails after a.txt's.
+        fs::remove(dir.path() / (".b.tmp" + std::to_string(::getpid())));
+        EXPECT_THROW(files.commit(), OutputError);
+    }
+    EXPECT_EQ(folder_entries(dir.path()), (std::vector<std::string>{"a.txt", "b", "marker.json"}));
+    for (const char* name : {"a.txt", "b", "marker.json"}) EXPECT_EQ(slurp(dir.path() / name), "old") << name;
 }
 
 TEST(RemoveStaleTemporaries, OnlyThoseOfEndedProcesses) {
@@ -71,6 +92,7 @@ TEST(RemoveStaleTemporaries, OnlyThoseOfEndedProcesses) {
     ASSERT_EQ(::waitpid(child, nullptr, 0), child);  // its pid names no process now
     const std::string dead = ".a.txt.tmp" + std::to_string(child), live = ".a.txt.tmp" + std::to_string(::getpid());
     dir.write(dead, "x");
+    dir.write(".a.txt.old" + std::to_string(child), "x");  // a killed commit's old file, moved aside
     dir.write(live, "x");
     dir.write(".other.txt.tmp1", "x");  // not one of the names: the user's
     remove_stale_temporaries(dir.path(), {"a.txt"});

@@ -25,9 +25,10 @@ void write_file_atomic(const std::filesystem::path& path,
 void write_file_atomic(const std::filesystem::path& path, const std::string& content);
 
 //! \brief Files that stand together, written as one set. Each file is streamed to a temporary
-//! name when added; commit() renames them into place in order, the last one (the set's marker)
-//! after removing its old copy first. So a run that is killed or fails leaves either the earlier
-//! set whole, or new files without their marker, never a marker over a mix. Temporaries of a set
+//! name when added; commit() moves the old files aside, the last one (the set's marker) first,
+//! and renames the new ones into place in order. A commit that fails puts the old set back as
+//! it was; one that is killed leaves new files without their marker, never a marker over a mix
+//! (remove_stale_temporaries then removes the old files left aside). Temporaries of a set
 //! destroyed before commit() are removed.
 class FileSet {
   public:
@@ -39,7 +40,8 @@ class FileSet {
     //! \throw OutputError (the temporaries written so far are removed with the set).
     void add(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
     void add(const std::filesystem::path& path, const std::string& content);
-    //! \throw OutputError if a rename fails.
+    //! \throw OutputError if a file's place holds a folder (nothing is touched) or a rename
+    //! fails (the old set is put back).
     void commit();
 
   private:
@@ -49,8 +51,8 @@ class FileSet {
     std::vector<Staged> staged_;
 };
 
-//! Removes the temporaries write_file_atomic leaves in `folder` when a run is killed while
-//! writing one of `names` (only those: the folder may hold the user's own files), except those
+//! Removes the temporaries (and a FileSet's old files moved aside) a run killed while writing
+//! one of `names` leaves in `folder` (only those: the folder may hold the user's own files), except those
 //! of processes still running.
 void remove_stale_temporaries(const std::filesystem::path& folder, const std::vector<std::string>& names);
 
