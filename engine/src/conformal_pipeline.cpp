@@ -4,6 +4,9 @@
 #include <cmath>
 #include <exception>
 #include <functional>
+#include <limits>
+#include <sstream>
+#include <string>
 
 #include <tbb/task_group.h>
 
@@ -157,13 +160,39 @@ void check_memory(const ConformalWork& work, std::size_t factor_nonzeros) {
                             std::to_string(work.options.max_solver_bytes >> 20) + " MiB");
 }
 
+// Why a Laplacian may fail to factorise, from its off-diagonal (cotan) weights: where they span
+// more than double precision resolves, the mesh's triangles are too thin for it.
+std::string weight_spread(const kernels::LaplacianMatrix& L, bool intrinsic) {
+    double smallest = std::numeric_limits<double>::infinity(), largest = 0;
+    Index negative = 0;
+    for (Index c = 0; c < L.n; ++c)
+        for (Index k = L.col_start[static_cast<std::size_t>(c)]; k < L.col_start[static_cast<std::size_t>(c) + 1]; ++k) {
+            const double w = -L.value[static_cast<std::size_t>(k)];  // off-diagonal entries are -w
+            if (L.row[static_cast<std::size_t>(k)] == c || w == 0) continue;
+            negative += w < 0;
+            smallest = std::min(smallest, std::abs(w));
+            largest = std::max(largest, std::abs(w));
+        }
+    if (largest == 0) return "";
+    std::ostringstream note;
+    note.precision(2);
+    note << "; its cotan weights run from " << smallest << " to " << largest;
+    if (negative > 0) note << ", " << negative << " of them negative" << (intrinsic ? "" : " (try --laplacian intrinsic)");
+    if (largest > 1e8 * smallest) note << ": the mesh's triangles are too thin or stretched for double precision";
+    return note.str();
+}
+
 void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times) {
     StageClock clock(times);
     const auto symbolic = cache ? cache->analysis(work.laplacian)
                                 : kernels::CholeskySymbolic::analyse(work.laplacian);
     clock.lap("analyse");
     check_memory(work, symbolic->factor_nonzeros());
-    work.factor = kernels::CholeskyFactor::factorize(symbolic, work.laplacian);
+    try {
+        work.factor = kernels::CholeskyFactor::factorize(symbolic, work.laplacian);
+    } catch (const SolverFailure& e) {
+        throw SolverFailure(e.what() + weight_spread(work.laplacian, work.intrinsic_laplacian()));
+    }
     work.laplacian = {};  // the factor holds what the solves need
     clock.lap("factorise");
 }

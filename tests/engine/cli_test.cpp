@@ -1,5 +1,6 @@
 // End-to-end checks of the holoflow executable: output format, error lines and exit statuses.
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +13,7 @@
 #include "holoflow/engine/mesh_error.h"
 #include "holoflow/engine/output.h"
 #include "holoflow/engine/status.h"
+#include "holoflow/kernels/shapes.h"
 #include "support/test_support.h"
 
 namespace holoflow {
@@ -537,6 +539,25 @@ TEST(Cli, MaxMemoryRefusesAModelOverIt) {
         const auto r = test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "b").string() + "'" + limit);
         EXPECT_EQ(r.status, 0) << limit << ": " << r.err;
     }
+}
+
+// A sphere pressed into a needle-thin disc 1e12 times wider than thick: its cotan weights span
+// 24 orders of magnitude and the factorization fails; the error says why.
+TEST(Cli, AMeshTooStretchedForDoublePrecisionIsNamedSo) {
+    test::TempDir dir;
+    const MeshView sphere = shapes::icosphere(2);
+    std::string off = "OFF\n" + std::to_string(sphere.n_vertices()) + " " + std::to_string(sphere.n_faces()) + " 0\n";
+    char line[128];
+    for (Index v = 0; v < sphere.n_vertices(); ++v) {
+        std::snprintf(line, sizeof line, "%.17g %.17g %.17g\n", sphere.V(v, 0) * 1e6, sphere.V(v, 1), sphere.V(v, 2) * 1e-6);
+        off += line;
+    }
+    for (Index f = 0; f < sphere.n_faces(); ++f)
+        off += "3 " + std::to_string(sphere.F(f, 0)) + " " + std::to_string(sphere.F(f, 1)) + " " + std::to_string(sphere.F(f, 2)) + "\n";
+    const auto r = test::run_cli("segment '" + dir.write("disc.off", off) + "' -o '" + (dir.path() / "out").string() + "'");
+    EXPECT_EQ(r.status, engine::kExitSolverFailure) << r.err;
+    EXPECT_NE(r.err.find("its cotan weights run from "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("too thin or stretched for double precision"), std::string::npos) << r.err;
 }
 
 // Under an address-space limit (`ulimit -v`) OpenBLAS retries a work buffer it cannot map
