@@ -534,6 +534,7 @@ LoadedMesh load_soup(const PolygonSoup& soup, const LoadOptions& options, bool t
     report.file_vertices = soup.n_vertices();
     report.file_polygons = soup.n_polygons();
     report.welded_vertices = soup.welded_vertices;
+    report.ignored_lines = soup.ignored_lines;
     if (soup.n_polygons() == 0) fail(MeshErrorKind::EmptyFile, "the file has no faces");
     if (soup.n_vertices() >= static_cast<std::size_t>(std::numeric_limits<Index>::max()))
         fail(MeshErrorKind::TooLarge, std::to_string(soup.n_vertices()) + " vertices");

@@ -385,6 +385,9 @@ PolygonSoup parse_off(const char* data, std::size_t size, bool free_layout) {
     }
     if (free_layout && c.skip_to_content())
         fail(Kind::ParseError, "line ", c.line, ": ", show_token(c.p, c.end()), " after the last face");
+    // Lines past the announced faces are not read, as other OFF readers do (CGAL's prim.off has
+    // one face more than its header says), but counted: the report shows what was left out.
+    for (; c.skip_to_content(); c.next_line()) ++soup.ignored_lines;
     return soup;
 }
 
@@ -648,9 +651,15 @@ struct ElementPlan {
 ElementPlan plan_element(const PlyElement& e) {
     ElementPlan plan;
     auto find = [&e](std::string_view name) {
-        for (std::size_t i = 0; i < e.properties.size(); ++i)
-            if (e.properties[i].name == name) return static_cast<int>(i);
-        return -1;
+        int found = -1;
+        for (std::size_t i = 0; i < e.properties.size(); ++i) {
+            if (e.properties[i].name != name) continue;
+            if (found >= 0)  // which of the two holds the data is anyone's guess
+                fail(Kind::ParseError, "line ", e.header_line, ": element ", e.name, " declares property ",
+                     name, " twice");
+            found = static_cast<int>(i);
+        }
+        return found;
     };
     if (e.name == "vertex") {
         plan.role = Role::Vertex;

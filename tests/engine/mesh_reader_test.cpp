@@ -232,6 +232,15 @@ TEST(OffReader, FewerVerticesThanAnnouncedIsTruncated) {
     EXPECT_EQ(parse_kind(face_cut, MeshFormat::Off), MeshErrorKind::Truncated);
 }
 
+// CGAL's prim.off lists one face more than its header says; like other readers we stop at the
+// announced count, and count what was left out.
+TEST(OffReader, LinesAfterTheAnnouncedFacesAreCountedNotRead) {
+    const std::string extra = "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n# comment\n3 0 1 3\n\n3 1 2 3\n";
+    const PolygonSoup s = parse_polygon_soup(extra.data(), extra.size(), MeshFormat::Off);
+    EXPECT_EQ(polygons_of(s), (Polygons{{0, 1, 2}}));
+    EXPECT_EQ(s.ignored_lines, 2u);
+}
+
 TEST(OffReader, HugeHeaderCountIsRefusedQuickly) {
     const test::TempDir dir;
     const std::string path =
@@ -493,6 +502,10 @@ TEST(PlyReader, HeaderErrors) {
         "ply\nformat ascii 1.0\nelement vertex 1\nproperty quad x\n"
         "end_header\n0\n";
     EXPECT_EQ(parse_kind(bad_type, MeshFormat::Ply), MeshErrorKind::ParseError);
+    const std::string twice_x =
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float x\n"
+        "property float y\nproperty float z\nend_header\n0 1 2 3\n";
+    EXPECT_EQ(parse_kind(twice_x, MeshFormat::Ply), MeshErrorKind::ParseError);
     const std::string no_end = "ply\nformat ascii 1.0\nelement vertex 1\n";
     EXPECT_EQ(parse_kind(no_end, MeshFormat::Ply), MeshErrorKind::Truncated);
     const std::string not_ply = "plx\nformat ascii 1.0\nend_header\n";

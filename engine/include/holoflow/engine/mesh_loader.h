@@ -55,6 +55,7 @@ struct LoadReport {
     std::size_t reoriented_faces = 0;       //!< faces flipped to make the winding consistent
     std::size_t unreferenced_vertices = 0;  //!< dropped
     std::size_t welded_vertices = 0;        //!< STL corners merged by position
+    std::size_t ignored_lines = 0;          //!< OFF lines after the faces its header announces, not read
     std::size_t split_vertices = 0;         //!< vertices added by splitting pinched vertices into fans
     std::size_t collapsed_edges = 0;        //!< zero-area repair: edges whose two ends coincide, merged
     std::size_t collapsed_faces = 0;        //!< the faces on those edges, gone with them, and faces

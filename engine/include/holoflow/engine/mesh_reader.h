@@ -18,6 +18,7 @@ struct PolygonSoup {
     std::vector<std::int64_t> indices;      //!< polygon corners, concatenated (0-based, as read)
     std::vector<std::uint64_t> offsets{0};  //!< polygon p is indices[offsets[p] .. offsets[p+1])
     std::size_t welded_vertices = 0;        //!< STL only: corners merged by identical position
+    std::size_t ignored_lines = 0;          //!< OFF only: lines after the faces the header announces
 
     std::size_t n_vertices() const { return positions.size() / 3; }
     std::size_t n_polygons() const { return offsets.size() - 1; }
