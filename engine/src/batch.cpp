@@ -110,6 +110,8 @@ std::vector<std::string> expand_inputs(const std::vector<std::string>& inputs, c
         if (fs::is_directory(path, ec)) {
             add_folder(out, seen, path, out_root);
         } else if (!fs::exists(path, ec)) {
+            if (fs::is_symlink(fs::symlink_status(path, ec)))
+                throw InvalidInput("input '" + input + "' is a symbolic link to nothing (a missing target or a loop)");
             throw InvalidInput("input '" + input + "' does not exist");
         } else if (is_mesh_file(path)) {
             add_unique(out, seen, path);

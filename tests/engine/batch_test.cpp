@@ -381,6 +381,11 @@ TEST(BatchCommand, RefusesMissingInputsAndUnwritableOutput) {
                                                 (dir.path() / "out").string() + "'");
     EXPECT_EQ(missing.status, kExitInvalidInput);
     EXPECT_NE(missing.err.find("does not exist"), std::string::npos);
+    fs::create_symlink(dir.path() / "loop", dir.path() / "loop");
+    const test::CommandResult loop = run_cli("batch '" + (dir.path() / "loop").string() + "' -o '" +
+                                             (dir.path() / "out").string() + "'");
+    EXPECT_EQ(loop.status, kExitInvalidInput);
+    EXPECT_NE(loop.err.find("is a symbolic link to nothing (a missing target or a loop)"), std::string::npos) << loop.err;
     fs::create_directories(dir.path() / "empty");
     const test::CommandResult nothing = run_cli("batch '" + (dir.path() / "empty").string() + "' -o '" +
                                                 (dir.path() / "out" / "deeper").string() + "'");
