@@ -737,6 +737,24 @@ LoadedMesh mesh_from_soup(const PolygonSoup& soup, const LoadOptions& options) {
     return load_soup(soup, options, false);
 }
 
+std::vector<Index> tip_vertices(const LoadedMesh& loaded, const std::vector<Index>& file_ids) {
+    if (file_ids.empty()) return {};
+    const auto file_vertices = static_cast<Index>(loaded.report.file_vertices);
+    std::vector<Index> of_file(static_cast<std::size_t>(file_vertices), -1);
+    for (auto v = static_cast<Index>(loaded.file_vertex.size()) - 1; v >= 0; --v) of_file[loaded.file_vertex[v]] = v;
+    std::vector<Index> out;
+    for (Index id : file_ids) {
+        if (id < 0 || id >= file_vertices)
+            throw InvalidInput("tip " + std::to_string(id) + " is not a vertex of the mesh (the file has " +
+                               std::to_string(file_vertices) + " vertices)");
+        if (of_file[id] < 0)
+            throw InvalidInput("tip " + std::to_string(id) +
+                               " is a vertex the loader dropped (no face uses it) or merged into another");
+        out.push_back(of_file[id]);
+    }
+    return out;
+}
+
 LoadedMesh load_mesh(const std::string& path, const LoadOptions& options) {
     return mesh_from_soup(read_polygon_soup(path, options.max_file_bytes), options);
 }

@@ -845,6 +845,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
           {"flipped_faces", std::count(z.face_flip.begin(), z.face_flip.end(), 1)}}},
         {"zero_fans",
          {{"failed", r.regular.failed_regions},
+          {"failed_weight", r.regular.failed_weight},
           {"merged", r.regular.merged_regions},
           {"removed_vertices", r.regular.removed_vertices},
           {"edge_flips", r.regular.edge_flips},

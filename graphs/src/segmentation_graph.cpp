@@ -25,9 +25,7 @@ struct ModelState {
     Clock::time_point deadline = Clock::time_point::max();
     engine::Status status;
     engine::PolygonSoup soup;
-    std::shared_ptr<const MeshView> mesh;
-    std::vector<Index> file_vertex;               // per vertex of mesh: its id in the file
-    Index file_vertices = 0;                      // in the file
+    engine::LoadedMesh loaded;
     std::vector<engine::SegmentationWork> parts;  // one per component of the mesh
     std::vector<int> first_block;                 // per part, its first solve block; then the total
     std::atomic<int> blocks_left{0};
@@ -38,8 +36,7 @@ struct ModelState {
     //! Drops the heavy data of a failed (or written) model; the outcome fields stay.
     void release() {
         soup = {};
-        mesh.reset();
-        file_vertex = {};
+        loaded = {};
         parts = {};
     }
 };
@@ -90,59 +87,37 @@ struct Stages {
     }
     void validate(ModelState& s) const {
         const auto start = Clock::now();
-        engine::LoadedMesh loaded = engine::mesh_from_soup(s.soup, options.load);
+        s.loaded = engine::mesh_from_soup(s.soup, options.load);
         s.soup = {};
-        s.mesh = std::move(loaded.mesh);
-        s.file_vertex = std::move(loaded.file_vertex);
-        s.file_vertices = static_cast<Index>(loaded.report.file_vertices);
-        s.run.outcome.vertices = static_cast<std::size_t>(s.mesh->n_vertices());
-        s.run.outcome.faces = static_cast<std::size_t>(s.mesh->n_faces());
+        s.run.outcome.vertices = static_cast<std::size_t>(s.loaded.mesh->n_vertices());
+        s.run.outcome.faces = static_cast<std::size_t>(s.loaded.mesh->n_faces());
         s.run.outcome.timings_ms.back().second +=
             std::chrono::duration<double, std::milli>(Clock::now() - start).count();  // into `load`
     }
     void prepare(ModelState& s) const {
-        const kernels::Topology topology = kernels::compute_topology(*s.mesh);
-        std::vector<std::shared_ptr<const MeshView>> meshes{s.mesh};
-        // Per component, its vertices' file ids (component_meshes keeps their order).
-        std::vector<std::vector<Index>> file_ids(1, s.file_vertex);
+        const MeshView& mesh = *s.loaded.mesh;
+        const kernels::Topology topology = kernels::compute_topology(mesh);
+        std::vector<std::shared_ptr<const MeshView>> meshes{s.loaded.mesh};
+        std::vector<std::vector<Index>> component_vertex;  // per component but a lone one: its vertices' ids in mesh
         if (topology.components > 1) {
             HOLOFLOW_REQUIRE(options.segment.tips.empty(), "tips are vertex ids of a connected mesh; this one has " +
                                                                std::to_string(topology.components) + " components");
             meshes.clear();
-            for (MeshView& component : kernels::component_meshes(*s.mesh, topology))
-                meshes.push_back(std::make_shared<const MeshView>(std::move(component)));
-            std::vector<Index> vertex_component(s.mesh->n_vertices());
-            for (Index f = 0; f < s.mesh->n_faces(); ++f)
-                for (int k = 0; k < 3; ++k) vertex_component[s.mesh->F(f, k)] = topology.face_component[f];
-            file_ids.assign(meshes.size(), {});
-            for (Index v = 0; v < s.mesh->n_vertices(); ++v) file_ids[vertex_component[v]].push_back(s.file_vertex[v]);
+            for (kernels::ComponentMesh& component : kernels::component_meshes(mesh, topology)) {
+                meshes.push_back(std::make_shared<const MeshView>(std::move(component.mesh)));
+                component_vertex.push_back(std::move(component.source_vertex));
+            }
         }
         engine::SegmentOptions segment_options = options.segment;
-        segment_options.tips = mesh_vertices(s, options.segment.tips);
+        segment_options.tips = engine::tip_vertices(s.loaded, options.segment.tips);
         s.run.outcome.genus = 0;
         for (std::size_t p = 0; p < meshes.size(); ++p)
             in_component(p, meshes.size(), [&] {
                 s.parts.push_back(segment_stage::prepare(meshes[p], segment_options));
-                std::vector<Index>& tips = s.parts.back().result.tips;  // reported as file ids
-                for (Index& tip : tips) tip = file_ids[p][tip];
+                for (Index& tip : s.parts.back().result.tips)  // reported as the file's ids
+                    tip = s.loaded.file_vertex[component_vertex.empty() ? tip : component_vertex[p][tip]];
                 s.run.outcome.genus += s.parts.back().result.input_genus;
             });
-    }
-    // The mesh's vertices for vertex ids of the file (the first one where a pinched vertex was split).
-    static std::vector<Index> mesh_vertices(const ModelState& s, const std::vector<Index>& file_ids) {
-        if (file_ids.empty()) return {};
-        const Index file_vertices = s.file_vertices;
-        std::vector<Index> of_file(file_vertices, -1);
-        for (Index v = static_cast<Index>(s.file_vertex.size()) - 1; v >= 0; --v) of_file[s.file_vertex[v]] = v;
-        std::vector<Index> out;
-        for (Index id : file_ids) {
-            HOLOFLOW_REQUIRE(id >= 0 && id < file_vertices, "tip " + std::to_string(id) + " is not a vertex of the mesh (the file has " +
-                                                               std::to_string(file_vertices) + " vertices)");
-            HOLOFLOW_REQUIRE(of_file[id] >= 0, "tip " + std::to_string(id) +
-                                                   " is a vertex the loader dropped (no face uses it) or merged into another");
-            out.push_back(of_file[id]);
-        }
-        return out;
     }
     void laplacian(ModelState& s) const {
         for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::laplacian(part.conformal); });

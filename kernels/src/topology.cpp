@@ -88,7 +88,7 @@ Topology compute_topology(const MeshView& mesh) {
     return t;
 }
 
-std::vector<MeshView> component_meshes(const MeshView& mesh, const Topology& topology) {
+std::vector<ComponentMesh> component_meshes(const MeshView& mesh, const Topology& topology) {
     HOLOFLOW_REQUIRE(static_cast<Index>(topology.face_component.size()) == mesh.n_faces(),
                      "the topology must be this mesh's");
     const std::size_t n_components = topology.per_component.size();
@@ -115,10 +115,12 @@ std::vector<MeshView> component_meshes(const MeshView& mesh, const Topology& top
             if (t != kNoHalfedge) twin[c][3 * g + k] = 3 * new_face[MeshView::face(t)] + t % 3;
         }
     }
-    std::vector<MeshView> out;
-    out.reserve(n_components);
-    for (std::size_t c = 0; c < n_components; ++c)
-        out.push_back(make_mesh_view(std::move(V[c]), std::move(F[c]), std::move(twin[c])));
+    std::vector<ComponentMesh> out(n_components);
+    for (std::size_t c = 0; c < n_components; ++c) {
+        out[c].mesh = make_mesh_view(std::move(V[c]), std::move(F[c]), std::move(twin[c]));
+        out[c].source_vertex.reserve(static_cast<std::size_t>(vertices[c]));
+    }
+    for (Index v = 0; v < mesh.n_vertices(); ++v) out[vertex_component[v]].source_vertex.push_back(v);
     return out;
 }
 

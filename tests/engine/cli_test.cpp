@@ -484,6 +484,7 @@ TEST(Cli, FanRefinementsCanBeTurnedOff) {
     const auto a = nlohmann::json::parse(refined.out);
     EXPECT_GE(a["fan_refinements"].get<int>(), 1);
     EXPECT_EQ(a["zero_fans"]["failed"], 0);
+    EXPECT_EQ(a["zero_fans"]["failed_weight"], 0);
     EXPECT_LT(a["rectangle_error_max"].get<double>(), 1e-9);
     const auto plain =
         test::run_cli("segment '" + mesh + "' -o '" + (dir.path() / "b").string() + "' --json --fan-refinements 0");
@@ -491,6 +492,7 @@ TEST(Cli, FanRefinementsCanBeTurnedOff) {
     const auto b = nlohmann::json::parse(plain.out);
     EXPECT_EQ(b["fan_refinements"], 0);
     EXPECT_GT(b["zero_fans"]["failed"].get<int>(), 0);
+    EXPECT_GE(b["zero_fans"]["failed_weight"].get<int>(), b["zero_fans"]["failed"].get<int>());  // each weighs >= 1
     EXPECT_LT(b["faces"].get<int>(), a["faces"].get<int>());
 }
 

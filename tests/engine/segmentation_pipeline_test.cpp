@@ -326,10 +326,10 @@ TEST(Segmentation, LayoutPatchesOnCadMeshesHaveNoFlipAfterRepair) {
 // (the same surface, valence-3 vertices, where zero fans fail).
 MeshView b9_mesh_split(Index first) {
     const MeshView split = test::centroid_split(*test::corpus_mesh("b9_mesh"), 10, first);
-    std::vector<MeshView> parts = kernels::component_meshes(split, kernels::compute_topology(split));
-    return std::move(*std::max_element(parts.begin(), parts.end(), [](const MeshView& a, const MeshView& b) {
-        return a.n_faces() < b.n_faces();
-    }));
+    std::vector<kernels::ComponentMesh> parts = kernels::component_meshes(split, kernels::compute_topology(split));
+    return std::move(std::max_element(parts.begin(), parts.end(), [](const auto& a, const auto& b) {
+                         return a.mesh.n_faces() < b.mesh.n_faces();
+                     })->mesh);
 }
 
 // b9_mesh split from face 1 (its largest part: genus 1, 15 boundary loops): a failed zero leaves one patch whose form nearly vanishes along a stretch of its
@@ -379,17 +379,17 @@ TEST(Segmentation, FanRefinementsCompareFailedZerosNotRegions) {
     const std::string file = "/usr/share/assimp/models/OBJ/regr01.obj";
     if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " missing: install assimp-testmodels";
     const std::shared_ptr<const MeshView> parts = load_mesh(file).mesh;
-    const std::vector<MeshView> components = kernels::component_meshes(*parts, kernels::compute_topology(*parts));
-    const auto plate = std::find_if(components.begin(), components.end(), [](const MeshView& c) {
-        return c.n_faces() == 128 && kernels::compute_topology(c).genus == 6;
+    const std::vector<kernels::ComponentMesh> components = kernels::component_meshes(*parts, kernels::compute_topology(*parts));
+    const auto plate = std::find_if(components.begin(), components.end(), [](const kernels::ComponentMesh& c) {
+        return c.mesh.n_faces() == 128 && kernels::compute_topology(c.mesh).genus == 6;
     });
     ASSERT_NE(plate, components.end());
     SegmentOptions unrefined;
     unrefined.fan_refinement_rounds = 0;
-    const SegmentationResult coarse = segment(*plate, unrefined);
+    const SegmentationResult coarse = segment(plate->mesh, unrefined);
     EXPECT_EQ(coarse.regular.failed_regions, 2);
     EXPECT_EQ(coarse.regular.failed_weight, 10);
-    const SegmentationResult r = segment(*plate);
+    const SegmentationResult r = segment(plate->mesh);
     EXPECT_GE(r.fan_refinements, 1);
     EXPECT_EQ(r.regular.failed_regions, 0);
     EXPECT_EQ(r.zeros.total_order, 10);

@@ -139,17 +139,17 @@ TEST(SegmentationGraph, ComponentsAreSegmentedOneByOne) {
     ASSERT_EQ(topology.components, 3);
     ASSERT_EQ(report["component_count"], 3);
     ASSERT_EQ(runs[0].components->size(), 3u);
-    const std::vector<MeshView> parts = kernels::component_meshes(*mesh, topology);
+    const std::vector<kernels::ComponentMesh> parts = kernels::component_meshes(*mesh, topology);
     std::int64_t zeros = 0, patches = 0, faces = 0;
     for (std::size_t c = 0; c < parts.size(); ++c) {
         SCOPED_TRACE(c);
-        nlohmann::json alone = engine::segmentation_report(engine::segment(parts[c]));
+        nlohmann::json alone = engine::segmentation_report(engine::segment(parts[c].mesh));
         nlohmann::json part = report["components"][c];
         alone.erase("timings_ms");
         part.erase("timings_ms");
         ASSERT_EQ(part["tips"].size(), alone["tips"].size());
         for (std::size_t t = 0; t < alone["tips"].size(); ++t)
-            EXPECT_EQ(mesh->V.row(part["tips"][t].get<Index>()), parts[c].V.row(alone["tips"][t].get<Index>()));
+            EXPECT_EQ(mesh->V.row(part["tips"][t].get<Index>()), parts[c].mesh.V.row(alone["tips"][t].get<Index>()));
         alone.erase("tips");
         part.erase("tips");
         EXPECT_EQ(part, alone);

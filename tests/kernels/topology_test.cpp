@@ -175,15 +175,19 @@ TEST(Topology, ComponentMeshesAreThePartsAgain) {
     const MeshView torus = shapes::torus(3.0, 1.0, 6, 4);
     const MeshView sphere = corner_tetrahedron();
     const MeshView both = disjoint_union(sphere, torus, /*interleave=*/true);
-    const std::vector<MeshView> parts = component_meshes(both, compute_topology(both));
+    const std::vector<ComponentMesh> parts = component_meshes(both, compute_topology(both));
     ASSERT_EQ(parts.size(), 2u);
+    Index first_vertex = 0;  // disjoint_union puts b's vertices after a's
     for (const auto& [part, original] : {std::pair{&parts[0], &sphere}, {&parts[1], &torus}}) {
-        EXPECT_EQ(part->V, original->V);
-        EXPECT_EQ(part->F, original->F);
-        EXPECT_EQ(part->twin, original->twin);
-        const Topology t = compute_topology(*part);
+        EXPECT_EQ(part->mesh.V, original->V);
+        EXPECT_EQ(part->mesh.F, original->F);
+        EXPECT_EQ(part->mesh.twin, original->twin);
+        const Topology t = compute_topology(part->mesh);
         EXPECT_EQ(t.components, 1);
         EXPECT_EQ(t.genus, compute_topology(*original).genus);
+        ASSERT_EQ(static_cast<Index>(part->source_vertex.size()), original->n_vertices());
+        for (Index v = 0; v < original->n_vertices(); ++v) EXPECT_EQ(part->source_vertex[v], first_vertex + v);
+        first_vertex += original->n_vertices();
     }
     EXPECT_THROW(component_meshes(both, compute_topology(sphere)), InvalidInput);
 }

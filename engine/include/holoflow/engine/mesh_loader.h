@@ -79,6 +79,11 @@ struct LoadedMesh {
     std::vector<Index> file_vertex;
 };
 
+//! The loaded mesh's vertices for tips given as vertex ids of the file (--tips; a split pinched
+//! vertex: its first copy). \throw InvalidInput naming an id that is no vertex of the file, or one the loader
+//! dropped (no face uses it) or merged into another.
+std::vector<Index> tip_vertices(const LoadedMesh& loaded, const std::vector<Index>& file_ids);
+
 //! Reads, validates and repairs (see README "Input checks"). \throw MeshError.
 LoadedMesh load_mesh(const std::string& path, const LoadOptions& options = {});
 

@@ -28,8 +28,14 @@ struct Topology {
 //! Counts, components, ordered boundary loops, Euler characteristic and genus. Linear time.
 Topology compute_topology(const MeshView& mesh);
 
+//! One connected component of a mesh, as a mesh of its own.
+struct ComponentMesh {
+    MeshView mesh;
+    std::vector<Index> source_vertex;  //!< per vertex of `mesh`: its id in the whole mesh
+};
+
 //! Each component of `mesh` as a mesh of its own, in topology's order: its faces in their
 //! order, its vertices in ascending order of their ids, twins kept. \pre topology of `mesh`.
-std::vector<MeshView> component_meshes(const MeshView& mesh, const Topology& topology);
+std::vector<ComponentMesh> component_meshes(const MeshView& mesh, const Topology& topology);
 
 }  // namespace holoflow::kernels
