@@ -58,7 +58,6 @@ int run_guarded(const std::function<int()>& body) {
     }
 }
 
-// Memory the process may use: physical memory, or the cgroup's limit where that is lower.
 // What the address-space limit leaves the solver: set by main before a solving command runs.
 engine::AddressSpacePlan solver_address_space;
 

@@ -158,7 +158,10 @@ SlicedSurface slice_at_tips(const MeshView& input, const kernels::Topology& topo
             HOLOFLOW_REQUIRE(cut.components == 1 && cut.boundary_loops >= 2,
                              "slicing the tips left " + std::to_string(cut.boundary_loops) +
                                  " boundary loop(s); a genus-0 surface needs two to carry a holomorphic 1-form");
+            // Reported as input vertices; one the refinement added is none of them (-1).
             r.tips = sliced.tips;
+            for (Index& tip : r.tips)
+                if (tip >= input.n_vertices()) tip = -1;
             r.tip_refinements = refinement;
             return {std::move(sliced.mesh), std::move(cut)};
         } catch (const InvalidInput&) {
@@ -764,6 +767,13 @@ const char* type_name(kernels::PatchInfo::Type type) {
     return "?";
 }
 
+// Vertex ids, null for a tip that is no input vertex (SegmentationResult::tips).
+nlohmann::json tips_json(const std::vector<Index>& tips) {
+    nlohmann::json out = nlohmann::json::array();
+    for (Index tip : tips) out.push_back(tip >= 0 ? nlohmann::json(tip) : nlohmann::json(nullptr));
+    return out;
+}
+
 }  // namespace
 
 nlohmann::json segmentation_report(const SegmentationResult& r) {
@@ -818,7 +828,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"double_covered", r.conformal.double_covered},
         {"mode", r.mode == SegmentMode::Layout ? "layout" : "vertical"},
         {"form", form_name(r.conformal.form)},
-        {"tips", r.tips},
+        {"tips", tips_json(r.tips)},
         {"tip_refinements", r.tip_refinements},
         {"filled_holes",
          {{"holes", r.filled_holes},

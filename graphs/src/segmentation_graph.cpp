@@ -115,7 +115,7 @@ struct Stages {
             in_component(p, meshes.size(), [&] {
                 s.parts.push_back(segment_stage::prepare(meshes[p], segment_options));
                 for (Index& tip : s.parts.back().result.tips)  // reported as the file's ids
-                    tip = s.loaded.file_vertex[component_vertex.empty() ? tip : component_vertex[p][tip]];
+                    if (tip >= 0) tip = s.loaded.file_vertex[component_vertex.empty() ? tip : component_vertex[p][tip]];
                 s.run.outcome.genus += s.parts.back().result.input_genus;
             });
     }

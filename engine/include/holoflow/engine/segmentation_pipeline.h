@@ -56,9 +56,10 @@ struct SegmentationResult {
     //! The open or closed surface the trajectories live on: the input, or the input with tips
     //! sliced (closed genus 0 / disks); open ones are traced on their double cover's first copy.
     std::shared_ptr<const MeshView> traced_input;
-    std::vector<Index> tips;                  //!< vertex ids sliced (of the refined input, see below)
+    //! Input vertex ids sliced; -1 for a tip on a vertex that tip_refinements added.
+    std::vector<Index> tips;
     //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
-    //! input's vertex ids, so tips below its vertex count are input vertices.
+    //! input's vertex ids and add vertices after them, where a tip may then be found.
     int tip_refinements = 0;
     //! Boundary loops filled (SegmentOptions::holes, then fill_holes_at_failed_fans) and the
     //! triangles that closed them, which traced_input holds after the faces it had (the input's,
