@@ -40,9 +40,13 @@ constexpr Index kFanRefinementFaces = 100000;
 // hexagonal holes two edges apart: 54 failed, 8 after one step, 4 after two, 7 after a
 // bisection instead).
 constexpr Index kMaxMidpointRefinedFaces = 20000;
-// Holes this many rings from a zero whose fan still fails are filled in a last try.
+// Holes this many rings from a zero whose fan still fails are filled in a last try; pinholes,
+// loops of at most kPinholeEdges, in a first one where the surface's faces times its forms
+// (what a refinement try costs) pass kPinholesFirstFaceForms.
 constexpr int kUnresolvedHoleRings = 2;
 constexpr int kUnresolvedHoleRounds = 3;
+constexpr Index kPinholeEdges = 4;
+constexpr double kPinholesFirstFaceForms = 1e6;
 
 // The cover's form restricted to its first copy, which is the open input (same faces, same
 // vertex order, so halfedge h of the input is halfedge h of the cover).
@@ -425,48 +429,63 @@ void fans(SegmentationWork& work) {
         tried(refined);
         return refined;
     };
-    bool subdivided = false;
-    if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
-        subdivided = keep_if_fewer_fail(midpoint_try());
-    for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
-        MeshView bisected =
-            bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular), max_faces);
-        std::optional<SegmentationWork> next;
-        if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
-            next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.regular.failed_weight,
-                                      r.tries_over_memory_limit);
-        tried(next);
-        // After a midpoint step, a second one competes with a first bisection round that left
-        // regions failed; it is kept only where fewer fail on it (it adds more faces).
-        if (round == 0 && subdivided && (!next || next->result.regular.failed_regions > 0)) {
-            std::optional<SegmentationWork> twice = midpoint_try();
-            if (twice && (!next || twice->result.regular.failed_weight < next->result.regular.failed_weight))
-                next = std::move(twice);
+    const auto refine = [&] {
+        bool subdivided = false;
+        if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
+            subdivided = keep_if_fewer_fail(midpoint_try());
+        for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
+            MeshView bisected =
+                bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular), max_faces);
+            std::optional<SegmentationWork> next;
+            if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
+                next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.regular.failed_weight,
+                                          r.tries_over_memory_limit);
+            tried(next);
+            // After a midpoint step, a second one competes with a first bisection round that left
+            // regions failed; it is kept only where fewer fail on it (it adds more faces).
+            if (round == 0 && subdivided && (!next || next->result.regular.failed_regions > 0)) {
+                std::optional<SegmentationWork> twice = midpoint_try();
+                if (twice && (!next || twice->result.regular.failed_weight < next->result.regular.failed_weight))
+                    next = std::move(twice);
+            }
+            if (!keep_if_fewer_fail(std::move(next))) break;
         }
-        if (!keep_if_fewer_fail(std::move(next))) break;
-    }
+    };
     // Zeros still unresolved next to small holes (a scan's pinholes, a loop of a few edges
     // holding two zeros of the double cover): those holes are filled, and the surface solved
     // again, kept where fewer regions fail (not on tip-sliced surfaces, whose holes are ours).
     // The new double cover has other zeros, which may sit on other small holes: a few rounds.
-    for (int round = 0; round < kUnresolvedHoleRounds && r.regular.failed_regions > 0 &&
-                        work.options.fill_holes_at_failed_fans && r.tips.empty();
-         ++round) {
-        const kernels::Topology topology = kernels::compute_topology(*r.traced_input);
-        const std::vector<Index> holes = holes_at_failed_fans(*r.traced_input, topology, work.regions, r.regular,
-                                                              work.options.holes.longest_fillable_loop);
-        if (holes.empty()) break;
-        kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
-        if (filled.holes == 0) break;
-        std::optional<SegmentationWork> closed =
-            on_refined_surface(std::move(filled.mesh), try_options(), max_faces, r.regular.failed_weight,
-                               r.tries_over_memory_limit);
-        tried(closed);
-        if (!keep_if_fewer_fail(std::move(closed), false)) break;
-        r.filled_holes += filled.holes;
-        r.filled_hole_faces += filled.faces;
-        r.holes_filled_at_failed_fans += filled.holes;
-    }
+    const auto fill_holes_at_failed_fans = [&](Index longest_loop) {
+        for (int round = 0; round < kUnresolvedHoleRounds && r.regular.failed_regions > 0 &&
+                            work.options.fill_holes_at_failed_fans && r.tips.empty();
+             ++round) {
+            const kernels::Topology topology = kernels::compute_topology(*r.traced_input);
+            const std::vector<Index> holes =
+                holes_at_failed_fans(*r.traced_input, topology, work.regions, r.regular, longest_loop);
+            if (holes.empty()) break;
+            kernels::FilledHoles filled = kernels::fill_holes(*r.traced_input, topology, holes);
+            if (filled.holes == 0) break;
+            std::optional<SegmentationWork> closed =
+                on_refined_surface(std::move(filled.mesh), try_options(), max_faces, r.regular.failed_weight,
+                                   r.tries_over_memory_limit);
+            tried(closed);
+            if (!keep_if_fewer_fail(std::move(closed), false)) break;
+            r.filled_holes += filled.holes;
+            r.filled_hole_faces += filled.faces;
+            r.holes_filled_at_failed_fans += filled.holes;
+        }
+    };
+    // Holes beside failed fans are filled after the refinements, as a last resort: the input's
+    // holes stay where a refinement places the fans. Pinholes (a missing triangle or two) go
+    // first where refining would cost much: a refinement try solves for every form on up to 8
+    // times the faces, and a scan's pinholes give double covers of genus 100 and more, where
+    // filling them first places more fans for a fraction of the time (bench/README, "Pinholes
+    // first").
+    const auto forms = static_cast<double>(r.conformal.harmonic.cols());
+    if (forms * static_cast<double>(r.traced_input->n_faces()) > kPinholesFirstFaceForms)
+        fill_holes_at_failed_fans(kPinholeEdges);
+    refine();
+    fill_holes_at_failed_fans(work.options.holes.longest_fillable_loop);
     // Where regions still fail, they may grow once more from their irregular vertices only
     // (kernels::FanOptions::regrow_failed), kept where fewer fail. Only here, on the surface
     // the refinements chose: as what a region takes changes what the later ones find, it

@@ -258,6 +258,29 @@ TEST(Segmentation, PinholesPastTheGenusCapAreFilled) {
     EXPECT_EQ(kept.zeros.total_order, 2 * 43 - 2);
 }
 
+// A scan with 120 pinholes: elephant (genus 3) without 120 faces that share no vertex has a
+// double cover of genus 125 (250 forms on 10k faces), where every refinement try would solve
+// for all of them. The pinholes beside failed fans are filled first; the refinements after that
+// place no more fans here (one fails), so the default gives what no refinement gives.
+TEST(Segmentation, PinholesBesideFailedFansOfAManyFormSurfaceAreFilledFirst) {
+    const std::shared_ptr<const MeshView> elephant = test::corpus_mesh("elephant");
+    const std::vector<Index> drop = test::pinhole_faces(*elephant, 120, 2609);
+    ASSERT_EQ(drop.size(), 120u);
+    const MeshView holey = test::without_faces(*elephant, drop);
+    const SegmentationResult r = segment(holey);
+    EXPECT_GT(r.holes_filled_at_failed_fans, 0);
+    EXPECT_EQ(r.fan_refinements, 0);
+    EXPECT_LE(r.regular.failed_regions, 1);
+    EXPECT_EQ(r.zeros.total_order, 2 * r.conformal.basis.genus - 2);
+    EXPECT_EQ(flipped(r), 0);
+    EXPECT_LE(rectangle_error(r), 1e-4);
+    SegmentOptions unrefined;
+    unrefined.fan_refinement_rounds = 0;
+    const SegmentationResult plain = segment(holey, unrefined);
+    EXPECT_EQ(plain.holes_filled_at_failed_fans, r.holes_filled_at_failed_fans);
+    EXPECT_EQ(plain.traced_input->F, r.traced_input->F);
+}
+
 // A zero whose fan failed is traced from its cluster's vertex that turns most in the image:
 // the saddle vertex the cluster names can be a regular point of the image, whose two curves per
 // family leave a patch winding around the zero. elephant-with-holes turned and stretched
