@@ -58,6 +58,17 @@ int run_guarded(const std::function<int()>& body) {
     }
 }
 
+// A range check where a value that is no number is named as such (CLI11's Range alone calls
+// "abc" out of range).
+template <class T>
+CLI::Validator number_in(T low, T high) {
+    return CLI::Validator(
+        [low, high](std::string& text) {
+            return CLI::Number(text).empty() ? CLI::Range(low, high)(text) : "not a number: " + text;
+        },
+        CLI::Range(low, high).get_description());
+}
+
 // What the address-space limit leaves the solver: set by main before a solving command runs.
 engine::AddressSpacePlan solver_address_space;
 
@@ -197,21 +208,21 @@ struct SegmentSettings {
                                         "and a refinement that would is skipped; models computed at once share it, "
                                         "and one over its share is computed again alone (0: no limit; default: "
                                         "3/4 of the memory, or of the address space `ulimit -v` leaves)")
-                         ->check(CLI::Range(std::size_t{0}, std::size_t{1} << 30));
+                         ->check(number_in(std::size_t{0}, std::size_t{1} << 30));
         command.add_option("--max-tips", max_tips, "most tips detected automatically")
-            ->check(CLI::Range(2, 64));
+            ->check(number_in(2, 64));
         command.add_option("--hole-size", hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
-            ->check(CLI::Range(0.0, 0.5));
+            ->check(number_in(0.0, 0.5));
         command.add_option("--fan-refinements", fan_refinements,
                            "where zero fans fail: rounds of refinement around them, each a new conformal "
                            "solve (0: none)")
-            ->check(CLI::Range(0, 8));
+            ->check(number_in(0, 8));
         command.add_option("--fill-holes", fill_holes, "fill every boundary loop of at most this many edges")
-            ->check(CLI::Range(0, 256));
+            ->check(number_in(0, 256));
         command.add_option("--max-working-genus", max_working_genus,
                            "past this genus of the double cover, fill the shortest boundary loops until it "
                            "fits (0: never)")
-            ->check(CLI::Range(0, 1 << 20));
+            ->check(number_in(0, 1 << 20));
         command.add_flag("--keep-holes-at-failed-fans", keep_holes_at_failed_fans,
                          "leave open the small holes next to zeros whose fans fail (default: fill them and "
                          "solve again)");
@@ -432,13 +443,13 @@ int main(int argc, char** argv) {
         ->required();
     batch_args.settings.add_to(*batch);
     batch->add_option("--threads", batch_args.threads, "worker threads (default: all cores)")
-        ->check(CLI::Range(1u, 1024u));
+        ->check(number_in(1u, 1024u));
     batch->add_option("--max-in-flight", batch_args.max_in_flight,
                       "models in memory at once (default: twice the threads)")
-        ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 20));
+        ->check(number_in(std::size_t{1}, std::size_t{1} << 20));
     batch->add_option("--timeout", batch_args.timeout_s,
                       "seconds per model, checked between stages (0: no limit)")
-        ->check(CLI::Range(0.0, 1e9))
+        ->check(number_in(0.0, 1e9))
         ->check(CLI::Validator(
             [](const std::string& text) {  // Range lets NaN through (every comparison with it is false)
                 return std::isnan(std::strtod(text.c_str(), nullptr)) ? std::string("not a number: ") + text

@@ -188,6 +188,9 @@ TEST(Cli, OptionValuesOutOfTheirDomainAreRefused) {
     const std::string mesh = test::corpus("eight.off"), out = (dir.path() / "o").string();
     EXPECT_EQ(test::run_cli("batch '" + mesh + "' -o '" + out + "' --max-memory -1").status, engine::kExitUsage);
     EXPECT_EQ(test::run_cli("batch '" + mesh + "' -o '" + out + "' --timeout nan").status, engine::kExitUsage);
+    const auto word = test::run_cli("batch '" + mesh + "' -o '" + out + "' --threads abc");
+    EXPECT_EQ(word.status, engine::kExitUsage);
+    EXPECT_NE(word.err.find("--threads: not a number: abc"), std::string::npos) << word.err;  // not "out of range"
     const auto tip = test::run_cli("segment '" + test::corpus("bull.off") + "' -o '" + out + "' --tips 1,90000");
     EXPECT_EQ(tip.status, engine::kExitInvalidInput) << tip.err;
     EXPECT_NE(tip.err.find("tip 90000 is not a vertex of the mesh"), std::string::npos) << tip.err;
