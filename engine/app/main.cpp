@@ -11,12 +11,14 @@
 #include <functional>
 #include <iostream>
 #include <new>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
+#include <tbb/info.h>
 #include <unistd.h>
 
 #include "holoflow/engine/conformal_pipeline.h"
@@ -473,15 +475,21 @@ int main(int argc, char** argv) {
     }
 
     if (info->parsed()) return run_guarded([&] { return run_info(info_mesh, info_json); });
-    // Every other command solves: under an address-space limit, plan it before any work.
-    const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+    // Every other command solves: under an address-space limit, plan it before any work. A
+    // batch runs --threads (default: every core); the others what oneTBB would (its default
+    // follows the process's CPU affinity), capped only where the limit affords fewer.
+    const unsigned wanted = batch->parsed() ? (batch_args.threads > 0 ? batch_args.threads
+                                                                      : std::max(1u, std::thread::hardware_concurrency()))
+                                            : static_cast<unsigned>(std::max(1, tbb::info::default_concurrency()));
     const int planned = run_guarded([&] {
-        solver_address_space = engine::plan_address_space(batch->parsed() && batch_args.threads > 0 ? batch_args.threads : cores);
+        solver_address_space = engine::plan_address_space(wanted);
         batch_args.threads = solver_address_space.threads;
         return 0;
     });
     if (planned != 0) return planned;
-    const tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, solver_address_space.threads);
+    std::optional<tbb::global_control> parallelism;
+    if (solver_address_space.threads < wanted)
+        parallelism.emplace(tbb::global_control::max_allowed_parallelism, solver_address_space.threads);
     if (conformal->parsed())
         return run_guarded([&] {
             return run_conformal(conformal_mesh, conformal_out, conformal_laplacian, conformal_json);
