@@ -141,8 +141,7 @@ void FileSet::commit() {
         move_aside(staged_.back().path);
         for (const Staged& s : staged_) {
             if (&s != &staged_.back()) move_aside(s.path);
-            fs::rename(s.temporary, s.path, ec);
-            if (ec) throw OutputError("cannot move the finished '" + s.path.string() + "' into place");
+            move_into_place(s.temporary, s.path);
             placed.push_back(s.path);
         }
     } catch (...) {

@@ -483,7 +483,7 @@ void fans(SegmentationWork& work) {
     // first").
     const auto forms = static_cast<double>(r.conformal.harmonic.cols());
     if (forms * static_cast<double>(r.traced_input->n_faces()) > kPinholesFirstFaceForms)
-        fill_holes_at_failed_fans(kPinholeEdges);
+        fill_holes_at_failed_fans(std::min(kPinholeEdges, work.options.holes.longest_fillable_loop));
     refine();
     fill_holes_at_failed_fans(work.options.holes.longest_fillable_loop);
     // Where regions still fail, they may grow once more from their irregular vertices only

@@ -56,15 +56,18 @@ MeshErrorKind read_kind(const std::string& path) {
     return MeshErrorKind::TooLarge;  // a kind the reader never produces
 }
 
-MeshErrorKind parse_kind(const std::string& bytes, MeshFormat format) {
+//! The error parsing `bytes` gives (kind and detail); a failure where it gives none.
+MeshError parse_error(const std::string& bytes, MeshFormat format) {
     try {
         parse_polygon_soup(bytes.data(), bytes.size(), format);
     } catch (const MeshError& e) {
-        return e.kind;
+        return e;
     }
     ADD_FAILURE() << "expected a MeshError parsing:\n" << bytes.substr(0, 200);
-    return MeshErrorKind::TooLarge;
+    return MeshError(MeshErrorKind::TooLarge, "");  // a kind the reader never produces
 }
+
+MeshErrorKind parse_kind(const std::string& bytes, MeshFormat format) { return parse_error(bytes, format).kind; }
 
 //! Binary writer for PLY/STL test files with a chosen byte order.
 class Bytes {
@@ -220,13 +223,9 @@ TEST(OffReader, FewerVerticesThanAnnouncedIsTruncated) {
     // The face line is read as vertex 3 ("3 0 1 2" has three numbers), then faces run out.
     EXPECT_EQ(read_kind(path), MeshErrorKind::Truncated);
     const std::string cut = "OFF\n4 1 0\n0 0 0\n1 0 0\n                              \n";
-    try {
-        parse_polygon_soup(cut.data(), cut.size(), MeshFormat::Off);
-        ADD_FAILURE() << "expected truncated";
-    } catch (const MeshError& e) {
-        EXPECT_EQ(e.kind, MeshErrorKind::Truncated);
-        EXPECT_NE(e.detail.find("2 of 4 vertices"), std::string::npos) << e.detail;
-    }
+    const MeshError short_error = parse_error(cut, MeshFormat::Off);
+    EXPECT_EQ(short_error.kind, MeshErrorKind::Truncated);
+    EXPECT_NE(short_error.detail.find("2 of 4 vertices"), std::string::npos) << short_error.detail;
     // Comment padding keeps the header size check satisfied so that the cut itself is found.
     const std::string face_cut = "OFF\n3 1 0\n# padding\n0 0 0\n1 0 0\n0 1 0\n3 0 1";
     EXPECT_EQ(parse_kind(face_cut, MeshFormat::Off), MeshErrorKind::Truncated);
@@ -612,13 +611,9 @@ TEST(StlReader, Errors) {
     EXPECT_EQ(parse_kind(ascii_cut, MeshFormat::Stl), MeshErrorKind::Truncated);
     // Bytes after endsolid that are not another solid are named, even binary ones.
     const std::string trailing = ascii_stl_tetra() + std::string("\x01\x00junk", 6);
-    try {
-        parse_polygon_soup(trailing.data(), trailing.size(), MeshFormat::Stl);
-        ADD_FAILURE() << "trailing bytes were accepted";
-    } catch (const MeshError& e) {
-        EXPECT_EQ(e.kind, MeshErrorKind::ParseError);
-        EXPECT_NE(e.detail.find("expected 'facet' or 'endsolid'"), std::string::npos) << e.detail;
-    }
+    const MeshError after_end = parse_error(trailing, MeshFormat::Stl);
+    EXPECT_EQ(after_end.kind, MeshErrorKind::ParseError);
+    EXPECT_NE(after_end.detail.find("expected 'facet' or 'endsolid'"), std::string::npos) << after_end.detail;
     std::string empty_binary(80, ' ');
     empty_binary += std::string(4, '\0');
     EXPECT_EQ(parse_kind(empty_binary, MeshFormat::Stl), MeshErrorKind::EmptyFile);
