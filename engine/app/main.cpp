@@ -483,6 +483,7 @@ int main(int argc, char** argv) {
                                             : static_cast<unsigned>(std::max(1, tbb::info::default_concurrency()));
     const int planned = run_guarded([&] {
         solver_address_space = engine::plan_address_space(wanted);
+        engine::keep_freed_memory(solver_address_space);
         batch_args.threads = solver_address_space.threads;
         return 0;
     });

@@ -23,6 +23,16 @@ struct AddressSpacePlan {
 //! \throw ResourceLimit when not even one solving thread fits, naming the limit to raise.
 AddressSpacePlan plan_address_space(unsigned wanted_threads);
 
+//! \brief Makes malloc keep what the models free for their next allocations, where the plan
+//! found no address-space limit. Each stage frees arrays that the next one, often on another
+//! thread, allocates again; glibc hands them back to the system (blocks from 128 KiB are mapped
+//! and unmapped, the heap's top is trimmed, each thread has its own arena), so every stage
+//! faulted its memory in anew, and page faults are dear (2 to 12 us each on a paravirtualised
+//! machine). One arena that keeps blocks up to 32 MiB and never trims reuses them. Call it
+//! before the first worker thread starts. Under a limit nothing changes: a heap that keeps
+//! freed memory could leave too little address space for a larger block.
+void keep_freed_memory(const AddressSpacePlan& plan);
+
 //! The memory the conformal stage may use without --max-memory: 3/4 of the machine's memory,
 //! and 3/4 of the address space the plan leaves for data.
 std::size_t default_memory_limit_bytes(const AddressSpacePlan& plan);
