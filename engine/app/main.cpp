@@ -60,13 +60,14 @@ int run_guarded(const std::function<int()>& body) {
     }
 }
 
-// A range check where a value that is no number is named as such (CLI11's Range alone calls
-// "abc" out of range).
+// A range check where a value that is no number is named as such: CLI11's Range alone calls
+// "abc" out of range, and lets "nan" through (every comparison with it is false).
 template <class T>
 CLI::Validator number_in(T low, T high) {
     return CLI::Validator(
         [low, high](std::string& text) {
-            return CLI::Number(text).empty() ? CLI::Range(low, high)(text) : "not a number: " + text;
+            const bool number = CLI::Number(text).empty() && !std::isnan(std::strtod(text.c_str(), nullptr));
+            return number ? CLI::Range(low, high)(text) : "not a number: " + text;
         },
         CLI::Range(low, high).get_description());
 }
@@ -451,13 +452,7 @@ int main(int argc, char** argv) {
         ->check(number_in(std::size_t{1}, std::size_t{1} << 20));
     batch->add_option("--timeout", batch_args.timeout_s,
                       "seconds per model, checked between stages (0: no limit)")
-        ->check(number_in(0.0, 1e9))
-        ->check(CLI::Validator(
-            [](const std::string& text) {  // Range lets NaN through (every comparison with it is false)
-                return std::isnan(std::strtod(text.c_str(), nullptr)) ? std::string("not a number: ") + text
-                                                                      : std::string();
-            },
-            "", "NotNaN"));
+        ->check(number_in(0.0, 1e9));
     batch->add_flag("--force", batch_args.force, "recompute models finished by an earlier run");
     batch->add_flag("--serial", batch_args.serial, "run the serial twin instead of the flow graph");
     batch->add_option("--dot", batch_args.dot, "write the flow graph as a Graphviz DOT file");

@@ -188,6 +188,9 @@ TEST(Cli, OptionValuesOutOfTheirDomainAreRefused) {
     const std::string mesh = test::corpus("eight.off"), out = (dir.path() / "o").string();
     EXPECT_EQ(test::run_cli("batch '" + mesh + "' -o '" + out + "' --max-memory -1").status, engine::kExitUsage);
     EXPECT_EQ(test::run_cli("batch '" + mesh + "' -o '" + out + "' --timeout nan").status, engine::kExitUsage);
+    const auto nan_size = test::run_cli("segment '" + mesh + "' -o '" + out + "' --hole-size nan");
+    EXPECT_EQ(nan_size.status, engine::kExitUsage);
+    EXPECT_NE(nan_size.err.find("--hole-size: not a number: nan"), std::string::npos) << nan_size.err;
     const auto word = test::run_cli("batch '" + mesh + "' -o '" + out + "' --threads abc");
     EXPECT_EQ(word.status, engine::kExitUsage);
     EXPECT_NE(word.err.find("--threads: not a number: abc"), std::string::npos) << word.err;  // not "out of range"
