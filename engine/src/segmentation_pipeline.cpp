@@ -293,20 +293,21 @@ std::vector<char> failed_fan_zone(const MeshView& surface, std::span<const kerne
 // the slivers on which the form's image folds. Inside a zone the edges longer than half the
 // zone's median edge length split (the zeros at elephant-with-holes' small holes, whose edges
 // are short already, need them; the median left 7 fans failed there, pizza 5); on the whole
-// surface those longer than the median (cheese: 4x the faces). It stops past max_faces (a zone
-// of tiny edges beside a long one: a fuzzed mesh of 168 faces grew without bound).
-MeshView bisected_surface(const MeshView& surface, std::span<const char> zone, Index max_faces) {
+// surface those longer than the median (cheese: 4x the faces). Nothing where no edge splits, or
+// past max_faces (a zone of tiny edges beside a long one: a fuzzed mesh of 168 faces grew
+// without bound; boeing's coarse CAD part would grow 22x).
+std::optional<MeshView> bisected_surface(const MeshView& surface, std::span<const char> zone, Index max_faces) {
     std::vector<double> length;
     for (Index e = 0; e < surface.n_edges(); ++e)
         if (zone.empty() || (zone[surface.E(e, 0)] && zone[surface.E(e, 1)]))
             length.push_back((surface.V.row(surface.E(e, 0)) - surface.V.row(surface.E(e, 1))).norm());
-    if (length.empty()) return surface;  // nothing to split
+    if (length.empty()) return std::nullopt;
     auto median = length.begin() + static_cast<std::ptrdiff_t>(length.size() / 2);
     std::nth_element(length.begin(), median, length.end());
     const double factor = zone.empty() ? 1.0 : 0.5;
-    MeshView bisected = kernels::bisect_long_edges(surface, factor * *median, zone, max_faces);
-    if (bisected.n_faces() > max_faces) return bisected;  // refused by on_refined_surface: no flips for it
-    return kernels::flip_flat_edges_to_delaunay(bisected);
+    std::optional<MeshView> bisected = kernels::bisect_long_edges(surface, factor * *median, zone, max_faces);
+    if (!bisected || bisected->n_faces() == surface.n_faces()) return std::nullopt;
+    return kernels::flip_flat_edges_to_delaunay(*bisected);
 }
 
 // Boundary loops of the traced surface within kUnresolvedHoleRings rings of a zero whose fan
@@ -434,11 +435,11 @@ void fans(SegmentationWork& work) {
         if (rounds > 0 && r.regular.failed_regions > 0 && 4 * r.traced_input->n_faces() <= kMaxMidpointRefinedFaces)
             subdivided = keep_if_fewer_fail(midpoint_try());
         for (int round = 0; round < rounds && r.regular.failed_regions > 0; ++round) {
-            MeshView bisected =
+            std::optional<MeshView> bisected =
                 bisected_surface(*r.traced_input, failed_fan_zone(*r.traced_input, work.regions, r.regular), max_faces);
             std::optional<SegmentationWork> next;
-            if (bisected.n_faces() != r.traced_input->n_faces())  // else no edge split: the same solve again
-                next = on_refined_surface(std::move(bisected), try_options(), max_faces, r.regular.failed_weight,
+            if (bisected)
+                next = on_refined_surface(std::move(*bisected), try_options(), max_faces, r.regular.failed_weight,
                                           r.tries_over_memory_limit);
             tried(next);
             // After a midpoint step, a second one competes with a first bisection round that left

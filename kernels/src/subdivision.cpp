@@ -61,6 +61,35 @@ MeshView split_faces(const MeshView& mesh, PointMatrix V) {
     return make_mesh_view(std::move(V), std::move(F), std::move(twin));
 }
 
+// At least the faces bisect_long_edges makes (`inside`: #V flags), without splitting: every
+// edge inside longer than max_length ends in 2^k pieces of at most max_length, each split of a
+// face's side adds a face to it; and a face with its three corners inside ends tiled by
+// triangles whose sides are at most max_length, none larger than the equilateral one. The
+// length is taken a little longer, so that rounding in the midpoints cannot make it too high.
+double bisected_faces_lower_bound(const MeshView& mesh, double max_length, const std::vector<char>& inside) {
+    const double length = max_length * (1 + 1e-9);
+    const double largest_area = std::sqrt(3.0) / 4 * length * length;
+    double bound = 0;
+    for (Index f = 0; f < mesh.n_faces(); ++f) {
+        double sides = 1;
+        bool corners_inside = true;
+        for (int k = 0; k < 3; ++k) {
+            const Index a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3);
+            corners_inside = corners_inside && inside[a];
+            const double l = (mesh.V.row(a) - mesh.V.row(b)).norm();
+            if (inside[a] && inside[b] && l > length) sides += std::exp2(std::ceil(std::log2(l / length))) - 1;
+        }
+        double tiles = 0;
+        if (corners_inside) {
+            const Eigen::RowVector3d u = mesh.V.row(mesh.F(f, 1)) - mesh.V.row(mesh.F(f, 0));
+            const Eigen::RowVector3d w = mesh.V.row(mesh.F(f, 2)) - mesh.V.row(mesh.F(f, 0));
+            tiles = std::floor(0.5 * u.cross(w).norm() / largest_area);
+        }
+        bound += std::max(sides, tiles);
+    }
+    return bound;
+}
+
 }  // namespace
 
 MeshView subdivide_midpoint(const MeshView& mesh) {
@@ -72,12 +101,15 @@ MeshView subdivide_midpoint(const MeshView& mesh) {
     return split_faces(mesh, std::move(V));
 }
 
-MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone, Index max_faces) {
+std::optional<MeshView> bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone,
+                                          Index max_faces) {
     HOLOFLOW_REQUIRE(max_length > 0, "bisection needs a positive edge length");
     HOLOFLOW_REQUIRE(zone.empty() || static_cast<Index>(zone.size()) == mesh.n_vertices(),
                      "bisection zone must have one flag per vertex");
     std::vector<char> inside(zone.begin(), zone.end());
     if (zone.empty()) inside.assign(static_cast<std::size_t>(mesh.n_vertices()), 1);
+    if (max_faces > 0 && bisected_faces_lower_bound(mesh, max_length, inside) > static_cast<double>(max_faces))
+        return std::nullopt;
     std::vector<Eigen::RowVector3d> V(static_cast<std::size_t>(mesh.n_vertices()));
     for (Index v = 0; v < mesh.n_vertices(); ++v) V[v] = mesh.V.row(v);
     std::vector<std::array<Index, 3>> F(static_cast<std::size_t>(mesh.n_faces()));
@@ -116,7 +148,8 @@ MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<co
         push(3 * g + 1);
         return 3 * g;
     };
-    while (!queue.empty() && (max_faces == 0 || static_cast<Index>(F.size()) <= max_faces)) {
+    while (!queue.empty()) {
+        if (max_faces > 0 && static_cast<Index>(F.size()) > max_faces) return std::nullopt;
         const auto [length, lo, hi, h] = queue.top();
         queue.pop();
         if (std::min(tail(h), head(h)) != lo || std::max(tail(h), head(h)) != hi) continue;
@@ -134,6 +167,7 @@ MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<co
         link(t, mb);
         for (Index x : {h, t, Index(3 * (h / 3) + (h % 3 + 1) % 3), Index(3 * (t / 3) + (t % 3 + 1) % 3)}) push(x);
     }
+    if (max_faces > 0 && static_cast<Index>(F.size()) > max_faces) return std::nullopt;  // the last split passed it
     PointMatrix points(static_cast<Index>(V.size()), 3);
     for (std::size_t v = 0; v < V.size(); ++v) points.row(static_cast<Index>(v)) = V[v];
     TriangleMatrix triangles(static_cast<Index>(F.size()), 3);

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -113,7 +115,7 @@ TEST(BisectLongEdges, KeepsTopologyGeometryAndOrientation) {
         double longest = 0;
         for (Index e = 0; e < m.n_edges(); ++e) longest = std::max(longest, (m.V.row(m.E(e, 0)) - m.V.row(m.E(e, 1))).norm());
         const double max_length = 0.3 * longest;
-        const MeshView s = bisect_long_edges(m, max_length);
+        const MeshView s = bisect_long_edges(m, max_length).value();
         const Topology before = compute_topology(m), after = compute_topology(s);
         EXPECT_EQ(after.genus, before.genus);
         EXPECT_EQ(after.euler_characteristic, before.euler_characteristic);
@@ -137,7 +139,7 @@ TEST(BisectLongEdges, KeepsTopologyGeometryAndOrientation) {
 
 TEST(BisectLongEdges, NewVerticesAreEdgeMidpointsOnTheSurface) {
     const MeshView m = shapes::torus(2.0, 0.7, 9, 6);
-    const MeshView s = bisect_long_edges(m, 0.2);
+    const MeshView s = bisect_long_edges(m, 0.2).value();
     // A new vertex sits halfway between two vertices it is joined to, on a straight line.
     for (Index v = m.n_vertices(); v < s.n_vertices(); ++v) {
         std::vector<Index> neighbours;
@@ -155,25 +157,54 @@ TEST(BisectLongEdges, KeepsHalfTheSmallestAngle) {
     // Rivara: splitting the longest edge first at most halves the smallest angle, on needles
     // (one ring of a tall thin cylinder) and on a coarse torus refined far down.
     for (const MeshView& m : {shapes::cylinder(0.1, 4.0, 8, 1), shapes::torus(2.0, 0.7, 9, 6)}) {
-        const MeshView s = bisect_long_edges(m, 0.05);
+        const MeshView s = bisect_long_edges(m, 0.05).value();
         EXPECT_GT(s.n_faces(), 20 * m.n_faces());
         EXPECT_GE(smallest_angle(s), 0.5 * smallest_angle(m) * (1 - 1e-9));
     }
 }
 
 // A length far below the edges' would refine the whole surface down to it (an icosphere to
-// 1e-6: about 1e13 faces); with a face limit the bisection stops just past it, a valid mesh.
-TEST(BisectLongEdges, StopsPastTheFaceLimit) {
+// 1e-6: about 1e13 faces); with a face limit the bisection gives nothing, at once.
+TEST(BisectLongEdges, GivesNothingPastTheFaceLimit) {
     const MeshView m = shapes::icosphere(1);
-    const MeshView s = bisect_long_edges(m, 1e-6, {}, 5000);
-    EXPECT_GT(s.n_faces(), 5000);
-    EXPECT_LE(s.n_faces(), 5002);  // the last split adds two faces
-    EXPECT_EQ(make_mesh_view(s.V, s.F).twin, s.twin);
+    EXPECT_FALSE(bisect_long_edges(m, 1e-6, {}, 5000).has_value());
+    EXPECT_FALSE(bisect_long_edges(m, 1e-300, {}, 5000).has_value());
+}
+
+// The limit refuses exactly the results with more faces than it allows: the lower bound that
+// refuses without splitting never exceeds the count the splits reach. On needles, a coarse
+// torus, a zone, an open sheet and a mesh of very uneven edges, from barely split to finely.
+TEST(BisectLongEdges, FaceLimitRefusesExactlyTheLargerResults) {
+    std::vector<Case> meshes = cases();
+    meshes.push_back({"needles", shapes::cylinder(0.1, 4.0, 8, 1)});
+    MeshView uneven = shapes::torus(2.0, 0.7, 9, 6);
+    for (Index v = 0; v < uneven.n_vertices(); ++v) uneven.V.row(v).x() *= v % 3 == 0 ? 4.0 : 0.5;
+    meshes.push_back({"uneven", make_mesh_view(uneven.V, uneven.F)});
+    for (const Case& c : meshes) {
+        const MeshView& m = c.mesh;
+        std::vector<char> zone(static_cast<std::size_t>(m.n_vertices()), 0);
+        for (Index v = 0; v < m.n_vertices(); v += 2) zone[v] = 1;
+        double longest = 0;
+        for (Index e = 0; e < m.n_edges(); ++e) longest = std::max(longest, (m.V.row(m.E(e, 0)) - m.V.row(m.E(e, 1))).norm());
+        for (const double fraction : {0.9, 0.4, 0.15, 0.06})
+            for (const bool zoned : {false, true}) {
+                SCOPED_TRACE(c.name + " at " + std::to_string(fraction) + (zoned ? " in a zone" : ""));
+                const std::span<const char> where = zoned ? std::span<const char>(zone) : std::span<const char>();
+                const MeshView all = bisect_long_edges(m, fraction * longest, where).value();
+                const std::optional<MeshView> at_limit = bisect_long_edges(m, fraction * longest, where, all.n_faces());
+                ASSERT_TRUE(at_limit.has_value());
+                EXPECT_EQ(at_limit->F, all.F);
+                EXPECT_EQ(at_limit->V, all.V);
+                if (all.n_faces() > m.n_faces()) {
+                    EXPECT_FALSE(bisect_long_edges(m, fraction * longest, where, all.n_faces() - 1).has_value());
+                }
+            }
+    }
 }
 
 TEST(BisectLongEdges, LeavesShortEdgesAloneAndRejectsNonPositiveLengths) {
     const MeshView m = shapes::icosphere(1);
-    const MeshView s = bisect_long_edges(m, 10.0);
+    const MeshView s = bisect_long_edges(m, 10.0).value();
     EXPECT_EQ(s.F, m.F);
     EXPECT_EQ(s.V, m.V);
     EXPECT_THROW(bisect_long_edges(m, 0.0), InvalidInput);

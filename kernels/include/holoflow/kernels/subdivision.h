@@ -1,5 +1,6 @@
 #pragma once
 
+#include <optional>
 #include <span>
 
 #include "holoflow/kernels/mesh_view.h"
@@ -26,12 +27,14 @@ MeshView subdivide_midpoint(const MeshView& mesh);
 //!
 //! Layout: vertex v < #V is input vertex v, new vertices follow in split order; face f < #F
 //! lies inside input face f, new faces follow. Genus, boundary loops and orientation are
-//! unchanged. Deterministic. With `max_faces` > 0 it stops once the mesh has more faces than
-//! that (a zone of tiny edges beside a long one would otherwise be refined down to their length
-//! across its whole area); the caller tells by the face count.
+//! unchanged. Deterministic. With `max_faces` > 0 it gives nothing where the result would have
+//! more faces than that (a zone of tiny edges beside a long one would otherwise be refined down
+//! to their length across its whole area): at once where a lower bound of the count says so
+//! (the in-zone edges' halvings, the in-zone faces' areas over the largest triangle of sides
+//! `max_length`), else as soon as the splits pass it.
 //! \throw InvalidInput if max_length is not positive or zone is neither empty nor #V long.
-MeshView bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone = {},
-                           Index max_faces = 0);
+std::optional<MeshView> bisect_long_edges(const MeshView& mesh, double max_length, std::span<const char> zone = {},
+                                          Index max_faces = 0);
 
 //! \brief Lawson's flips where they keep the geometry: an interior edge whose two triangles lie
 //! in one plane (the far corner within `flatness` times the longest side of it) and form a
