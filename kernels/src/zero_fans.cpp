@@ -431,6 +431,15 @@ class Builder {
         faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
     }
 
+    // normalise(faces) where its first `sorted` entries are sorted and unique already (a region
+    // and what a step adds to it): only the new ones sorted, then merged in.
+    static void normalise_after(std::vector<Index>& faces, std::size_t sorted) {
+        const auto middle = faces.begin() + static_cast<std::ptrdiff_t>(sorted);
+        std::sort(middle, faces.end());
+        std::inplace_merge(faces.begin(), middle, faces.end());
+        faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    }
+
     // Faces of accepted regions: a fold (order 0) on either side joins this region; two zeros
     // never merge (each keeps its own centre), so the other zero's faces are left out.
     void absorb_or_block(std::vector<Group>& groups, Index g, std::vector<Index>& faces, bool merge_zeros) {
@@ -465,7 +474,7 @@ class Builder {
                 for (Index f : faces) mark_[f] = 0;
             }
             faces.swap(kept);
-            normalise(faces);
+            if (changed) normalise(faces);  // else a part of the sorted list it was
         }
     }
 
@@ -503,8 +512,9 @@ class Builder {
         for (Index x : seen) mark_[x] = 0;
         for (Index f : faces) mark_[f] = 0;
         for (Index x : added) mark_[x] = 0;
+        const std::size_t region = faces.size();
         faces.insert(faces.end(), added.begin(), added.end());
-        normalise(faces);
+        normalise_after(faces, region);
     }
 
     // Grows towards what broke: flipped faces touching the region, stars of border vertices
@@ -529,7 +539,7 @@ class Builder {
             for (Index v : border) star(v, add);
         for (Index f : faces) mark_[f] = 0;
         faces.insert(faces.end(), add.begin(), add.end());
-        normalise(faces);
+        normalise_after(faces, before);
         return faces.size() > before;
     }
 
