@@ -76,8 +76,9 @@ double bisected_faces_lower_bound(const MeshView& mesh, double max_length, const
         for (int k = 0; k < 3; ++k) {
             const Index a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3);
             corners_inside = corners_inside && inside[a];
+            if (!inside[a] || !inside[b]) continue;
             const double l = (mesh.V.row(a) - mesh.V.row(b)).norm();
-            if (inside[a] && inside[b] && l > length) sides += std::exp2(std::ceil(std::log2(l / length))) - 1;
+            if (l > length) sides += std::exp2(std::ceil(std::log2(l / length))) - 1;
         }
         double tiles = 0;
         if (corners_inside) {
@@ -148,8 +149,8 @@ std::optional<MeshView> bisect_long_edges(const MeshView& mesh, double max_lengt
         push(3 * g + 1);
         return 3 * g;
     };
-    while (!queue.empty()) {
-        if (max_faces > 0 && static_cast<Index>(F.size()) > max_faces) return std::nullopt;
+    const auto over_limit = [&] { return max_faces > 0 && static_cast<Index>(F.size()) > max_faces; };
+    while (!queue.empty() && !over_limit()) {
         const auto [length, lo, hi, h] = queue.top();
         queue.pop();
         if (std::min(tail(h), head(h)) != lo || std::max(tail(h), head(h)) != hi) continue;
@@ -167,7 +168,7 @@ std::optional<MeshView> bisect_long_edges(const MeshView& mesh, double max_lengt
         link(t, mb);
         for (Index x : {h, t, Index(3 * (h / 3) + (h % 3 + 1) % 3), Index(3 * (t / 3) + (t % 3 + 1) % 3)}) push(x);
     }
-    if (max_faces > 0 && static_cast<Index>(F.size()) > max_faces) return std::nullopt;  // the last split passed it
+    if (over_limit()) return std::nullopt;
     PointMatrix points(static_cast<Index>(V.size()), 3);
     for (std::size_t v = 0; v < V.size(); ++v) points.row(static_cast<Index>(v)) = V[v];
     TriangleMatrix triangles(static_cast<Index>(F.size()), 3);

@@ -426,14 +426,9 @@ class Builder {
         for (Index i = vf_.start[v]; i < vf_.start[v + 1]; ++i) faces.push_back(vf_.faces[i]);
     }
 
-    static void normalise(std::vector<Index>& faces) {
-        std::sort(faces.begin(), faces.end());
-        faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
-    }
-
-    // normalise(faces) where its first `sorted` entries are sorted and unique already (a region
-    // and what a step adds to it): only the new ones sorted, then merged in.
-    static void normalise_after(std::vector<Index>& faces, std::size_t sorted) {
+    // Sorted, each face once. Where the first `sorted` entries are so already (a region and what
+    // a step adds to it), only the rest is sorted, then merged in.
+    static void normalise(std::vector<Index>& faces, std::size_t sorted = 0) {
         const auto middle = faces.begin() + static_cast<std::ptrdiff_t>(sorted);
         std::sort(middle, faces.end());
         std::inplace_merge(faces.begin(), middle, faces.end());
@@ -484,7 +479,7 @@ class Builder {
     // pocket between the region and such a piece (a notch along the border) is closed as a
     // hole. That rounds the region off; stopping there instead (the strict definition) gave
     // the 872 unseen variants 420 failed fans instead of 410 for a fifth less fan time
-    // (bench/README, "Bisections past the face limit"), so the rounding stays.
+    // (bench/README, "Hole filling in the fan regions"), so the rounding stays.
     void fill_holes(std::vector<Index>& faces) {
         for (Index f : faces) mark_[f] = 1;
         std::vector<Index> added, piece, seen;
@@ -519,7 +514,7 @@ class Builder {
         for (Index x : added) mark_[x] = 0;
         const std::size_t region = faces.size();
         faces.insert(faces.end(), added.begin(), added.end());
-        normalise_after(faces, region);
+        normalise(faces, region);
     }
 
     // Grows towards what broke: flipped faces touching the region, stars of border vertices
@@ -544,7 +539,7 @@ class Builder {
             for (Index v : border) star(v, add);
         for (Index f : faces) mark_[f] = 0;
         faces.insert(faces.end(), add.begin(), add.end());
-        normalise_after(faces, before);
+        normalise(faces, before);
         return faces.size() > before;
     }
 
