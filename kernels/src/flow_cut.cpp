@@ -60,6 +60,15 @@ struct PolygonPool {
     Polygon a, b;
 };
 
+// std::stable_sort, without its buffer allocation for the few segments a face holds.
+template <class Less>
+void stable_sort_few(std::vector<FaceSegment>& v, Less less) {
+    constexpr std::size_t kFew = 32;
+    if (v.size() > kFew) return std::stable_sort(v.begin(), v.end(), less);
+    for (std::size_t i = 1; i < v.size(); ++i)
+        for (std::size_t j = i; j > 0 && less(v[j], v[j - 1]); --j) std::swap(v[j], v[j - 1]);
+}
+
 // Splits a piece by a chord between two of its points; false if they are not both on one.
 bool split(PolygonPool& pool, const FaceSegment& s) {
     for (std::size_t k = 0; k < pool.n; ++k) {
@@ -378,9 +387,11 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[h]];
     };
 
-    // Per face: split and triangulate (each face writes its own slot).
+    // Per face: split and triangulate (each face writes its own slot). A range of slots keeps
+    // its triangles in one array, at its first slot: one allocation per range, not per face.
     const Index n_crossed = static_cast<Index>(crossed.size());
-    std::vector<std::vector<Triangle>> face_triangles(n_crossed);  // by slot
+    std::vector<std::vector<Triangle>> range_triangles(n_crossed);  // by the range's first slot
+    std::vector<Index> range_of(n_crossed), first_triangle(n_crossed), triangle_count(n_crossed);  // by slot
     std::vector<Index> skipped(n_crossed, 0);
     std::vector<char> inner_unpaired(n_crossed, 0);
     par::for_each_range(static_cast<std::size_t>(n_crossed), kParallelFaces, [&](std::size_t begin, std::size_t end) {
@@ -393,6 +404,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         std::vector<const FaceSegment*> waiting, still;
         std::vector<Triangle> tris;
         std::vector<std::pair<std::uint64_t, Index>> inner_keys;
+        std::vector<Triangle>& range_out = range_triangles[begin];
         for (Index slot = static_cast<Index>(begin); slot < static_cast<Index>(end); ++slot) {
             const Index f = crossed[slot];
             auto& segs = face_segments[slot];
@@ -424,7 +436,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
             // collision point exists only once its blocker's segment is in, and a blocker may
             // itself stop here earlier than the curve it blocks: a segment whose end points are
             // not both on one piece yet waits for the next round.
-            std::stable_sort(segs.begin(), segs.end(), [](const FaceSegment& a, const FaceSegment& b) {
+            stable_sort_few(segs, [](const FaceSegment& a, const FaceSegment& b) {
                 if (a.collision_tail != b.collision_tail) return !a.collision_tail;
                 return a.collision_tail && a.stop_length > b.stop_length;
             });
@@ -472,9 +484,16 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 pool.n = 1;
                 inner_unpaired[slot] = !triangulate_pieces();
             }
-            face_triangles[slot].assign(tris.begin(), tris.end());
+            range_of[slot] = static_cast<Index>(begin);
+            first_triangle[slot] = static_cast<Index>(range_out.size());
+            triangle_count[slot] = static_cast<Index>(tris.size());
+            range_out.insert(range_out.end(), tris.begin(), tris.end());
         }
     });
+    const auto face_triangles = [&](Index slot) {
+        return std::span<const Triangle>(range_triangles[range_of[slot]]).subspan(first_triangle[slot],
+                                                                                   triangle_count[slot]);
+    };
 
     // Assemble: positions, triangles, the form on the new halfedges.
     CutMesh out;
@@ -495,7 +514,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     }
     Index n_tri = 0;
     for (Index f = 0; f < nf; ++f)
-        n_tri += slot_of[f] < 0 ? 1 : static_cast<Index>(face_triangles[slot_of[f]].size());
+        n_tri += slot_of[f] < 0 ? 1 : triangle_count[slot_of[f]];
     TriangleMatrix F(n_tri, 3);
     std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
     std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));
@@ -521,7 +540,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
             continue;
         }
         const Index first = 3 * g;
-        for (const Triangle& t : face_triangles[slot_of[f]]) {
+        for (const Triangle& t : face_triangles(slot_of[f])) {
             out.original_face[g] = f;
             for (int k = 0; k < 3; ++k) {
                 F(g, k) = t.v[k];

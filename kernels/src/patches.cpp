@@ -18,6 +18,7 @@
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/flow_cut.h"
 #include "holoflow/kernels/union_find.h"
+#include "holoflow/kernels/zeros.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -651,6 +652,14 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     Patches p;
     p.face_patch.assign(nf, -1);
     p.corner_uv.assign(3 * static_cast<std::size_t>(nf), Complex(0));
+    // Per halfedge, in one pass in memory order: the form along it, and its twin where the flood
+    // crosses (-1 at borders). The flood then reads each face it reaches in one place.
+    std::vector<Complex> along(mesh.n_halfedges());
+    std::vector<Index> across(mesh.n_halfedges());
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) {
+        along[h] = form_along(mesh, tau, h);
+        across[h] = on_border(mesh, border, h) ? kNoHalfedge : mesh.twin[h];
+    }
     std::vector<Index> queue;
     queue.reserve(nf);
     for (Index seed = 0; seed < nf; ++seed) {
@@ -659,14 +668,14 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
         p.info.emplace_back();
         p.face_patch[seed] = id;
         p.corner_uv[3 * seed] = 0;
-        p.corner_uv[3 * seed + 1] = form_along(mesh, tau, 3 * seed);
-        p.corner_uv[3 * seed + 2] = -form_along(mesh, tau, 3 * seed + 2);
+        p.corner_uv[3 * seed + 1] = along[3 * seed];
+        p.corner_uv[3 * seed + 2] = -along[3 * seed + 2];
         queue.assign(1, seed);
         for (std::size_t q = 0; q < queue.size(); ++q) {
             const Index f = queue[q];
             for (int k = 0; k < 3; ++k) {
-                const Index h = 3 * f + k, t = mesh.twin[h];
-                if (t == kNoHalfedge || border[mesh.halfedge_edge[h]]) continue;
+                const Index t = across[3 * f + k];
+                if (t == kNoHalfedge) continue;
                 const Index g = MeshView::face(t);
                 if (p.face_patch[g] >= 0) continue;
                 p.face_patch[g] = id;
@@ -674,8 +683,8 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
                 const Index kt = t % 3;
                 const Complex base = p.corner_uv[3 * f + (k + 1) % 3];
                 p.corner_uv[3 * g + kt] = base;
-                p.corner_uv[3 * g + (kt + 1) % 3] = base + form_along(mesh, tau, t);
-                p.corner_uv[3 * g + (kt + 2) % 3] = base - form_along(mesh, tau, MeshView::prev(t));
+                p.corner_uv[3 * g + (kt + 1) % 3] = base + along[t];
+                p.corner_uv[3 * g + (kt + 2) % 3] = base - along[MeshView::prev(t)];
                 queue.push_back(g);
             }
         }
@@ -987,17 +996,27 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
         }
         if (direction != Complex(0)) best[id] = {angle, v, direction};
     }
-    // Branch points: inner vertices of a disk around which its uv turns twice or more, where a
-    // zero whose fan failed (traced from another vertex) sent no curve. One takes its patch's
-    // turn before any corner; the patch's corners come after it is split.
-    std::vector<double> turn(cm.n_vertices(), 0);
+    // Branch points: inner vertices of a disk around which its uv turns twice or more (angles
+    // summing above 3 pi), where a zero whose fan failed (traced from another vertex) sent no
+    // curve. One takes its patch's turn before any corner; the patch's corners come after it is
+    // split. A bound of each sum comes first, from a polynomial arctangent; only a vertex whose
+    // bound passes 3 pi is summed exactly (in halfedge order, as always).
     std::vector<char> inner(cm.n_vertices(), 1);
+    std::vector<char> in_disk(cm.n_halfedges(), 0);
     for (Index h = 0; h < cm.n_halfedges(); ++h) {
         const PatchInfo& info = patches.info[patches.face_patch[MeshView::face(h)]];
         if (on_border(cm, border, h)) inner[cm.tail(h)] = inner[cm.head(h)] = 0;
-        if (info.type != PatchInfo::Type::Disk || info.flipped_uv_triangles > 0) continue;
-        turn[cm.tail(h)] += corner_angle(h);
+        in_disk[h] = info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles == 0;
     }
+    std::vector<double> bound(cm.n_vertices(), 0);  // no smaller than the exact sum
+    for (Index h = 0; h < cm.n_halfedges(); ++h)
+        if (in_disk[h] && inner[cm.tail(h)]) {
+            const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
+            bound[cm.tail(h)] += atan2_above(cross(e1, e2), (e1 * std::conj(e2)).real());
+        }
+    std::vector<double> turn(cm.n_vertices(), 0);
+    for (Index h = 0; h < cm.n_halfedges(); ++h)
+        if (in_disk[h] && bound[cm.tail(h)] > kBranchTurn) turn[cm.tail(h)] += corner_angle(h);
     std::vector<Index> branch(patches.info.size(), -1);
     for (Index h = 0; h < cm.n_halfedges(); ++h) {
         const Index v = cm.tail(h), id = patches.face_patch[MeshView::face(h)];

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <random>
@@ -299,6 +300,36 @@ TEST(Zeros, StretchedFemurHasNoArtifacts) {
     EXPECT_EQ(z.merged_negative_clusters, 0);
     EXPECT_EQ(z.total_order, 2);
     EXPECT_EQ(z.zeros.size(), 2u);
+}
+
+// atan2_above bounds atan2 from above, within 4e-5 of it, over every direction and scale: the
+// axes and diagonals exactly, signed zeros (the +-pi cut), tiny, huge and subnormal components;
+// where it cannot tell it says +inf.
+TEST(Zeros, Atan2AboveBoundsTheArctangent) {
+    const auto check = [](double y, double x) {
+        const double exact = std::atan2(y, x), above = atan2_above(y, x);
+        EXPECT_GE(above, exact) << "y " << y << " x " << x;
+        EXPECT_LE(above, exact + 4e-5) << "y " << y << " x " << x;
+    };
+    std::mt19937_64 rng(20261206);
+    std::uniform_real_distribution<double> angle(-std::numbers::pi, std::numbers::pi);
+    std::uniform_real_distribution<double> exponent(-300, 300);
+    for (int i = 0; i < 200000; ++i) {
+        const double r = std::pow(10.0, exponent(rng)), a = angle(rng);
+        check(r * std::sin(a), r * std::cos(a));
+    }
+    for (int k = 0; k <= 4096; ++k) {  // the polynomial over its whole range, both octants
+        const double t = k / 4096.0;
+        for (const double sy : {1.0, -1.0})
+            for (const double sx : {1.0, -1.0}) check(sy * t, sx * 1.0), check(sy * 1.0, sx * t);
+    }
+    for (const double y : {0.0, -0.0})
+        for (const double x : {1.0, -1.0, 1e-310, -1e-310}) check(y, x), check(x, y);
+    check(1e-310, -1e300), check(-1e-310, -1e300), check(1e300, 1e-310);
+    EXPECT_EQ(atan2_above(0.0, 0.0), std::numeric_limits<double>::infinity());
+    EXPECT_EQ(atan2_above(-0.0, -0.0), std::numeric_limits<double>::infinity());
+    EXPECT_EQ(atan2_above(std::nan(""), 1.0), std::numeric_limits<double>::infinity());
+    EXPECT_EQ(atan2_above(1.0, -std::numeric_limits<double>::infinity()), std::numeric_limits<double>::infinity());
 }
 
 // image_turns gives exactly the rounded angle sums, through its shortcuts or not: images with

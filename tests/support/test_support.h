@@ -15,8 +15,10 @@
 
 namespace holoflow::test {
 
+// Appended in place: GCC 12's -Warray-bounds misreads `std::string(...) + "/" + name` inlined.
 inline std::string corpus(const std::string& name) {
-    return std::string(HOLOFLOW_CORPUS_DIR) + "/" + name;
+    std::string path = HOLOFLOW_CORPUS_DIR;
+    return path.append("/").append(name);
 }
 
 //! A libcgal-demo mesh loaded with the engine; the corpus is always unpacked by the build, so a
@@ -26,7 +28,8 @@ inline std::shared_ptr<const MeshView> corpus_mesh(const std::string& name) {
 }
 
 inline std::string shared_mesh(const std::string& name) {
-    return std::string(HOLOFLOW_SHARED_MESHES) + "/" + name;
+    std::string path = HOLOFLOW_SHARED_MESHES;
+    return path.append("/").append(name);
 }
 
 //! The whole file as bytes ("" if it cannot be read).

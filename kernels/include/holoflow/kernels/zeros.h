@@ -1,8 +1,10 @@
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <numbers>
 #include <span>
 #include <vector>
@@ -17,6 +19,20 @@ namespace holoflow::kernels {
 inline double corner_angle(std::complex<double> from, std::complex<double> to) {
     const std::complex<double> r = std::conj(from) * to;
     return std::atan2(r.imag(), r.real());
+}
+
+//! An upper bound of std::atan2(y, x) within 4e-5 of it, without the call: a polynomial
+//! arctangent (Abramowitz and Stegun 4.4.49, error 1.15e-5 at most on [0, 1]) plus 2e-5; +inf where
+//! it cannot tell (both zero, or a non-finite input). Sums of it bound angle sums from above.
+inline double atan2_above(double y, double x) {
+    const double ax = std::abs(x), ay = std::abs(y);
+    if (!(std::isfinite(ax) && std::isfinite(ay)) || (ax == 0 && ay == 0))
+        return std::numeric_limits<double>::infinity();
+    const double t = std::min(ax, ay) / std::max(ax, ay), t2 = t * t;
+    double a = t * (0.9998660 + t2 * (-0.3302995 + t2 * (0.1801410 + t2 * (-0.0851330 + t2 * 0.0208351))));
+    if (ay > ax) a = std::numbers::pi / 2 - a;
+    if (x < 0) a = std::numbers::pi - a;
+    return (std::signbit(y) ? -a : a) + 2e-5;
 }
 
 //! Flips of an image triangle from the sum of its three corner angles: 0 for pi
