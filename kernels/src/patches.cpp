@@ -633,13 +633,26 @@ std::vector<Opening> cylinder_openings(const MeshView& mesh, const Eigen::Vector
         const double off_middle = vertical ? std::abs(uv.imag() - info.height / 2) : std::abs(uv.real() - info.width / 2);
         out.push_back({id, off_middle, v, vertical, h == kNoHalfedge});
     }
-    std::sort(out.begin(), out.end(), [](const Opening& a, const Opening& b) {
+    // The first kOpeningCandidates of each patch in this order (a total one: vertices differ),
+    // selected per patch rather than sorting every vertex of every cylinder.
+    const auto before = [](const Opening& a, const Opening& b) {
         return std::tie(a.patch, a.on_boundary, a.off_middle, a.vertex) <
                std::tie(b.patch, b.on_boundary, b.off_middle, b.vertex);
-    });
+    };
+    std::vector<std::size_t> start(np + 1, 0);  // by patch, a counting sort
+    for (const Opening& o : out) ++start[o.patch + 1];
+    std::partial_sum(start.begin(), start.end(), start.begin());
+    std::vector<Opening> by_patch(out.size());
+    std::vector<std::size_t> next(start.begin(), start.end() - 1);
+    for (const Opening& o : out) by_patch[next[o.patch]++] = o;
     std::vector<Opening> kept;
-    for (std::size_t i = 0; i < out.size(); ++i)
-        if (i < kOpeningCandidates || out[i - kOpeningCandidates].patch != out[i].patch) kept.push_back(out[i]);
+    for (Index id = 0; id < np; ++id) {
+        const auto first = by_patch.begin() + static_cast<std::ptrdiff_t>(start[id]);
+        const auto last = by_patch.begin() + static_cast<std::ptrdiff_t>(start[id + 1]);
+        const auto end = first + std::min<std::ptrdiff_t>(kOpeningCandidates, last - first);
+        std::partial_sort(first, end, last, before);
+        kept.insert(kept.end(), first, end);
+    }
     return kept;
 }
 
