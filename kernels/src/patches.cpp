@@ -882,36 +882,71 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
         return unique ? found : Index{-1};
     };
 
-    std::vector<TransversalStart> starts;
-    for (const Opening& o : openings)
-        starts.push_back({cut.original_vertex[o.vertex], o.vertical ? TrajectoryFamily::Vertical : TrajectoryFamily::Horizontal});
-    const std::vector<Trajectory> traced = trace_transversals(mesh, tau, zero_vertices, starts, trajectories);
+    // The curves of each opening, traced in two rounds: every cylinder's first few starts, then
+    // the others of the cylinders those did not open across (most open at their first start).
+    // A start's curves do not depend on the other starts traced with it, so the rounds choose
+    // what tracing all at once would.
+    constexpr std::size_t kFirstRoundStarts = 4;
+    std::vector<std::vector<Trajectory>> curves_of(openings.size());
+    const auto trace_openings = [&](const std::vector<std::size_t>& which) {
+        std::vector<TransversalStart> starts;
+        std::vector<std::pair<Index, std::size_t>> by_vertex;  // start vertex -> opening
+        for (std::size_t i : which) {
+            const Index v = cut.original_vertex[openings[i].vertex];
+            starts.push_back({v, openings[i].vertical ? TrajectoryFamily::Vertical : TrajectoryFamily::Horizontal});
+            by_vertex.emplace_back(v, i);
+        }
+        std::sort(by_vertex.begin(), by_vertex.end());
+        for (Trajectory& t : trace_transversals(mesh, tau, zero_vertices, starts, trajectories)) {
+            auto it = std::lower_bound(by_vertex.begin(), by_vertex.end(), std::pair{t.start_vertex, std::size_t{0}});
+            for (; it != by_vertex.end() && it->first == t.start_vertex; ++it) curves_of[it->second].push_back(t);
+        }
+    };
     // Per cylinder, the first start with two curves that run from one border loop to the
     // other, else the first with two that end on one loop (they cut a disk off the cylinder).
     // A start at a fold of the form sends more than two; a pair of them is a cut as well. A
     // start on the surface boundary counts as a curve of its own (no curve) ending on its loop.
-    const auto filled = [](const std::array<const Trajectory*, 2>& pair) { return pair[0] || pair[1]; };
-    std::vector<Trajectory> out;
-    for (std::size_t i = 0; i < openings.size();) {
-        const Index patch = openings[i].patch;
+    // (Among the openings [first, end) of one cylinder.)
+    struct Choice {
         std::array<const Trajectory*, 2> across{}, off{};
-        for (; i < openings.size() && openings[i].patch == patch; ++i) {
-            const Index v = cut.original_vertex[openings[i].vertex];
+    };
+    const auto filled = [](const std::array<const Trajectory*, 2>& pair) { return pair[0] || pair[1]; };
+    const auto choose = [&](std::size_t first, std::size_t end) {
+        Choice c;
+        const Index patch = openings[first].patch;
+        for (std::size_t i = first; i < end; ++i) {
             std::vector<std::pair<const Trajectory*, Index>> curves;  // with the loop each ends on
             if (openings[i].on_boundary) curves.emplace_back(nullptr, loop_of[cm.vertex_halfedge[openings[i].vertex]]);
-            for (const Trajectory& t : traced)
-                if (t.start_vertex == v) curves.emplace_back(&t, end_loop(t, patch));
+            for (const Trajectory& t : curves_of[i]) curves.emplace_back(&t, end_loop(t, patch));
             for (std::size_t a = 0; a < curves.size(); ++a)
                 for (std::size_t b = a + 1; b < curves.size(); ++b) {
                     if (curves[a].second < 0 || curves[b].second < 0) continue;
-                    auto& slot = curves[a].second != curves[b].second ? across : off;
+                    auto& slot = curves[a].second != curves[b].second ? c.across : c.off;
                     if (!filled(slot)) slot = {curves[a].first, curves[b].first};
                 }
-            if (filled(across)) break;
+            if (filled(c.across)) break;
         }
-        while (i < openings.size() && openings[i].patch == patch) ++i;
-        const auto& chosen = filled(across) ? across : off;
-        for (const Trajectory* t : chosen)
+        return c;
+    };
+    std::vector<std::pair<std::size_t, std::size_t>> cylinders;  // openings [first, last) of each
+    for (std::size_t i = 0; i < openings.size();) {
+        const std::size_t first = i;
+        while (i < openings.size() && openings[i].patch == openings[first].patch) ++i;
+        cylinders.emplace_back(first, i);
+    }
+    std::vector<std::size_t> which;
+    for (const auto& [first, last] : cylinders)
+        for (std::size_t i = first; i < std::min(last, first + kFirstRoundStarts); ++i) which.push_back(i);
+    trace_openings(which);
+    which.clear();
+    for (const auto& [first, last] : cylinders)
+        if (!filled(choose(first, std::min(last, first + kFirstRoundStarts)).across))
+            for (std::size_t i = first + kFirstRoundStarts; i < last; ++i) which.push_back(i);
+    if (!which.empty()) trace_openings(which);
+    std::vector<Trajectory> out;
+    for (const auto& [first, last] : cylinders) {
+        const Choice c = choose(first, last);
+        for (const Trajectory* t : filled(c.across) ? c.across : c.off)
             if (t) out.push_back(*t);
     }
     return out;
