@@ -11,26 +11,30 @@
 #include "holoflow/kernels/errors.h"
 
 extern "C" void openblas_set_num_threads(int);
-extern "C" void omp_set_max_active_levels(int);  // libgomp, which Debian's CHOLMOD is built with
 extern "C" void* blas_memory_alloc(int);  // OpenBLAS's buffer pool (exported, undocumented)
 extern "C" void blas_memory_free(void*);
+
+//! CHOLMOD 3 (Debian's SuiteSparse 5, built with OpenMP) wraps small loops of its supernodal
+//! factorization in `omp parallel for` regions of up to 4 threads. Such threads would stack on
+//! busy oneTBB workers, so every region runs on its caller instead. Serialised, a region still
+//! cost a one-thread libgomp team whose barrier ends in a futex system call: 39k of them in one
+//! factorization of a 100k-face mesh, half of its time on this machine. Defined in the program,
+//! this entry point (GCC's OpenMP ABI, the only one CHOLMOD calls besides omp_get_num_threads
+//! and omp_get_thread_num, which then report the one thread) takes precedence over libgomp's
+//! and runs the region's body once on the calling thread: what the one-thread team ran.
+extern "C" void GOMP_parallel(void (*body)(void*), void* data, unsigned /*num_threads*/, unsigned /*flags*/) {
+    body(data);
+}
 
 namespace holoflow::kernels {
 namespace {
 
 //! One BLAS thread: callers parallelise over meshes and right-hand sides, and a single thread
 //! keeps every BLAS reduction in a fixed order (same bits on any machine load). CHOLMOD's own
-//! OpenMP loops (up to 4 threads per factorization, compiled in) would stack threads on busy
-//! oneTBB workers: no active OpenMP level makes every parallel region run on its caller. libgomp
-//! keeps that setting per thread, so each thread that calls CHOLMOD sets it once.
+//! OpenMP regions run on their caller (GOMP_parallel above).
 void pin_blas_threads() {
     static std::once_flag once;
     std::call_once(once, [] { openblas_set_num_threads(1); });
-    thread_local const bool no_openmp_teams = [] {
-        omp_set_max_active_levels(0);
-        return true;
-    }();
-    (void)no_openmp_teams;
 }
 
 }  // namespace
