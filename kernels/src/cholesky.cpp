@@ -1,5 +1,7 @@
 #include "holoflow/kernels/cholesky.h"
 
+#include <dlfcn.h>
+
 #include <cmath>
 #include <mutex>
 #include <string>
@@ -14,15 +16,27 @@ extern "C" void openblas_set_num_threads(int);
 extern "C" void* blas_memory_alloc(int);  // OpenBLAS's buffer pool (exported, undocumented)
 extern "C" void blas_memory_free(void*);
 
+namespace {
+
+//! CHOLMOD calls on this thread in progress (a Common alive: every call goes through one).
+thread_local int cholmod_calls = 0;
+
+}  // namespace
+
 //! CHOLMOD 3 (Debian's SuiteSparse 5, built with OpenMP) wraps small loops of its supernodal
 //! factorization in `omp parallel for` regions of up to 4 threads. Such threads would stack on
-//! busy oneTBB workers, so every region runs on its caller instead. Serialised, a region still
-//! cost a one-thread libgomp team whose barrier ends in a futex system call: 39k of them in one
-//! factorization of a 100k-face mesh, half of its time on this machine. Defined in the program,
-//! this entry point (GCC's OpenMP ABI, the only one CHOLMOD calls besides omp_get_num_threads
-//! and omp_get_thread_num, which then report the one thread) takes precedence over libgomp's
-//! and runs the region's body once on the calling thread: what the one-thread team ran.
-extern "C" void GOMP_parallel(void (*body)(void*), void* data, unsigned /*num_threads*/, unsigned /*flags*/) {
+//! busy oneTBB workers, so CHOLMOD's regions run on their caller. Serialised by libgomp, a region
+//! still cost a one-thread team whose barrier ends in a futex system call: 39k of them in one
+//! factorization of a 100k-face mesh, most of its time on this machine. Defined in the program,
+//! this entry point of GCC's OpenMP ABI (the only one CHOLMOD calls besides omp_get_num_threads
+//! and omp_get_thread_num, which then report the one thread) takes precedence over libgomp's:
+//! inside a CHOLMOD call it runs the region's body once on the calling thread, what a one-thread
+//! team ran; any other caller gets libgomp's own.
+extern "C" void GOMP_parallel(void (*body)(void*), void* data, unsigned num_threads, unsigned flags) {
+    if (cholmod_calls > 0) return body(data);
+    using Entry = void (*)(void (*)(void*), void*, unsigned, unsigned);
+    static const auto libgomp = reinterpret_cast<Entry>(dlsym(RTLD_NEXT, "GOMP_parallel"));
+    if (libgomp != nullptr) return libgomp(body, data, num_threads, flags);
     body(data);
 }
 
@@ -53,6 +67,7 @@ namespace {
 class Common {
   public:
     Common() {
+        ++cholmod_calls;
         cholmod_start(&c_);  // fails only for a null pointer
         c_.nmethods = 1;     // AMD only: the default also tries METIS, slower at every size
         c_.method[0].ordering = CHOLMOD_AMD;
@@ -63,7 +78,10 @@ class Common {
         c_.error_handler = nullptr;
         c_.useGPU = 0;
     }
-    ~Common() { cholmod_finish(&c_); }
+    ~Common() {
+        cholmod_finish(&c_);
+        --cholmod_calls;
+    }
     Common(const Common&) = delete;
     Common& operator=(const Common&) = delete;
 

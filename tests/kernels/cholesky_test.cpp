@@ -2,6 +2,7 @@
 
 #include <dlfcn.h>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -223,7 +224,7 @@ int threads_in_process() {
 // CHOLMOD's OpenMP regions run on their caller with no libgomp team: the program's GOMP_parallel
 // is the definition every library resolves, and factorizations large enough for CHOLMOD to ask
 // for teams of 4 (regions over more than 128 rows), on the main thread and another one, start
-// no thread.
+// no thread. Outside CHOLMOD a region still gets its team from libgomp.
 TEST(Cholesky, OpenMPRegionsRunOnTheirCaller) {
     EXPECT_EQ(dlsym(RTLD_DEFAULT, "GOMP_parallel"), reinterpret_cast<void*>(&GOMP_parallel));
     const LaplacianMatrix L = pinned_laplacian(shapes::icosphere(5));
@@ -235,6 +236,10 @@ TEST(Cholesky, OpenMPRegionsRunOnTheirCaller) {
     std::thread other([&] { CholeskyFactor::factorize(symbolic, L); });
     other.join();
     EXPECT_EQ(threads_in_process(), before);
+
+    std::atomic<int> bodies = 0;
+    GOMP_parallel([](void* count) { ++*static_cast<std::atomic<int>*>(count); }, &bodies, 2, 0);
+    EXPECT_EQ(bodies, 2);
 }
 
 }  // namespace
