@@ -380,9 +380,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         first_piece[e + 1] = first_piece[e] + static_cast<Index>(edge_points[e].size()) + 1;
 
     // Chart position of every point seen from a face (corner 0 at 0).
-    std::vector<Complex> along(mesh.n_halfedges());
-    for (Index h = 0; h < mesh.n_halfedges(); ++h)
-        along[h] = form_along(mesh, tau, h);
+    const std::vector<Complex> along = forms_along(mesh, tau);
     const auto label = [&](Index h) {
         return edge_label.empty() ? kNoBorder : edge_label[mesh.halfedge_edge[h]];
     };
@@ -391,7 +389,10 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     // its triangles in one array, at its first slot: one allocation per range, not per face.
     const Index n_crossed = static_cast<Index>(crossed.size());
     std::vector<std::vector<Triangle>> range_triangles(n_crossed);  // by the range's first slot
-    std::vector<Index> range_of(n_crossed), first_triangle(n_crossed), triangle_count(n_crossed);  // by slot
+    struct Placed {
+        Index range, first, count;  // range_triangles[range][first, first + count)
+    };
+    std::vector<Placed> placed(n_crossed);  // by slot
     std::vector<Index> skipped(n_crossed, 0);
     std::vector<char> inner_unpaired(n_crossed, 0);
     par::for_each_range(static_cast<std::size_t>(n_crossed), kParallelFaces, [&](std::size_t begin, std::size_t end) {
@@ -484,15 +485,13 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
                 pool.n = 1;
                 inner_unpaired[slot] = !triangulate_pieces();
             }
-            range_of[slot] = static_cast<Index>(begin);
-            first_triangle[slot] = static_cast<Index>(range_out.size());
-            triangle_count[slot] = static_cast<Index>(tris.size());
+            placed[slot] = {static_cast<Index>(begin), static_cast<Index>(range_out.size()), static_cast<Index>(tris.size())};
             range_out.insert(range_out.end(), tris.begin(), tris.end());
         }
     });
     const auto face_triangles = [&](Index slot) {
-        return std::span<const Triangle>(range_triangles[range_of[slot]]).subspan(first_triangle[slot],
-                                                                                   triangle_count[slot]);
+        const Placed& p = placed[slot];
+        return std::span<const Triangle>(range_triangles[p.range]).subspan(p.first, p.count);
     };
 
     // Assemble: positions, triangles, the form on the new halfedges.
@@ -514,7 +513,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     }
     Index n_tri = 0;
     for (Index f = 0; f < nf; ++f)
-        n_tri += slot_of[f] < 0 ? 1 : triangle_count[slot_of[f]];
+        n_tri += slot_of[f] < 0 ? 1 : placed[slot_of[f]].count;
     TriangleMatrix F(n_tri, 3);
     std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
     std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));

@@ -665,14 +665,11 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     Patches p;
     p.face_patch.assign(nf, -1);
     p.corner_uv.assign(3 * static_cast<std::size_t>(nf), Complex(0));
-    // Per halfedge, in one pass in memory order: the form along it, and its twin where the flood
+    // Per halfedge, in passes in memory order: the form along it, and its twin where the flood
     // crosses (-1 at borders). The flood then reads each face it reaches in one place.
-    std::vector<Complex> along(mesh.n_halfedges());
+    const std::vector<Complex> along = forms_along(mesh, tau);
     std::vector<Index> across(mesh.n_halfedges());
-    for (Index h = 0; h < mesh.n_halfedges(); ++h) {
-        along[h] = form_along(mesh, tau, h);
-        across[h] = on_border(mesh, border, h) ? kNoHalfedge : mesh.twin[h];
-    }
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) across[h] = on_border(mesh, border, h) ? kNoHalfedge : mesh.twin[h];
     std::vector<Index> queue;
     queue.reserve(nf);
     for (Index seed = 0; seed < nf; ++seed) {
@@ -897,9 +894,10 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
             by_vertex.emplace_back(v, i);
         }
         std::sort(by_vertex.begin(), by_vertex.end());
+        // Openings are distinct vertices of the traced mesh (original_vertex is its ids).
         for (Trajectory& t : trace_transversals(mesh, tau, zero_vertices, starts, trajectories)) {
-            auto it = std::lower_bound(by_vertex.begin(), by_vertex.end(), std::pair{t.start_vertex, std::size_t{0}});
-            for (; it != by_vertex.end() && it->first == t.start_vertex; ++it) curves_of[it->second].push_back(t);
+            const auto it = std::lower_bound(by_vertex.begin(), by_vertex.end(), std::pair{t.start_vertex, std::size_t{0}});
+            if (it != by_vertex.end() && it->first == t.start_vertex) curves_of[it->second].push_back(std::move(t));
         }
     };
     // Per cylinder, the first start with two curves that run from one border loop to the
@@ -1001,9 +999,14 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
     const std::array<Complex, 4> axes{Complex(1, 0), Complex(0, 1), Complex(-1, 0), Complex(0, -1)};
     // uv from corner h to corner `to` of the same face
     const auto uv_from = [&](Index h, Index to) { return patches.corner_uv[to] - patches.corner_uv[h]; };
-    const auto corner_angle = [&](Index h) {  // the uv angle of face(h) at the tail of h
+    // The uv angle of face(h) at the tail of h is atan2 of these (sine and cosine, scaled).
+    const auto corner_sides = [&](Index h) {
         const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
-        return std::atan2(cross(e1, e2), (e1 * std::conj(e2)).real());
+        return std::pair{cross(e1, e2), (e1 * std::conj(e2)).real()};
+    };
+    const auto corner_angle = [&](Index h) {
+        const auto [y, x] = corner_sides(h);
+        return std::atan2(y, x);
     };
     std::vector<Index> sector;
     // Each border halfedge out of a vertex starts one sector of its patch there: the faces
@@ -1050,21 +1053,21 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
     // split. A bound of each sum comes first, from a polynomial arctangent; only a vertex whose
     // bound passes 3 pi is summed exactly (in halfedge order, as always).
     std::vector<char> inner(cm.n_vertices(), 1);
-    std::vector<char> in_disk(cm.n_halfedges(), 0);
-    for (Index h = 0; h < cm.n_halfedges(); ++h) {
-        const PatchInfo& info = patches.info[patches.face_patch[MeshView::face(h)]];
+    for (Index h = 0; h < cm.n_halfedges(); ++h)
         if (on_border(cm, border, h)) inner[cm.tail(h)] = inner[cm.head(h)] = 0;
-        in_disk[h] = info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles == 0;
-    }
+    const auto in_disk = [&](Index h) {  // face(h) in a disk without flips
+        const PatchInfo& info = patches.info[patches.face_patch[MeshView::face(h)]];
+        return info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles == 0;
+    };
     std::vector<double> bound(cm.n_vertices(), 0);  // no smaller than the exact sum
     for (Index h = 0; h < cm.n_halfedges(); ++h)
-        if (in_disk[h] && inner[cm.tail(h)]) {
-            const Complex e1 = uv_from(h, MeshView::next(h)), e2 = uv_from(h, MeshView::prev(h));
-            bound[cm.tail(h)] += atan2_above(cross(e1, e2), (e1 * std::conj(e2)).real());
+        if (inner[cm.tail(h)] && in_disk(h)) {
+            const auto [y, x] = corner_sides(h);
+            bound[cm.tail(h)] += atan2_above(y, x);
         }
     std::vector<double> turn(cm.n_vertices(), 0);
     for (Index h = 0; h < cm.n_halfedges(); ++h)
-        if (in_disk[h] && bound[cm.tail(h)] > kBranchTurn) turn[cm.tail(h)] += corner_angle(h);
+        if (bound[cm.tail(h)] > kBranchTurn && in_disk(h)) turn[cm.tail(h)] += corner_angle(h);
     std::vector<Index> branch(patches.info.size(), -1);
     for (Index h = 0; h < cm.n_halfedges(); ++h) {
         const Index v = cm.tail(h), id = patches.face_patch[MeshView::face(h)];

@@ -32,12 +32,10 @@ class Tracer {
  public:
     Tracer(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const Index> zero_vertices,
            const TraceOptions& options)
-        : mesh_(mesh), along_(mesh.n_halfedges()), zero_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0) {
+        : mesh_(mesh), along_(forms_along(mesh, tau)), zero_(mesh.n_vertices(), 0), boundary_(mesh.n_vertices(), 0) {
         double area = 0;
-        for (Index h = 0; h < mesh.n_halfedges(); ++h) {
-            along_[h] = form_along(mesh, tau, h);
+        for (Index h = 0; h < mesh.n_halfedges(); ++h)
             if (mesh.twin[h] == kNoHalfedge) boundary_[mesh.tail(h)] = boundary_[mesh.head(h)] = 1;
-        }
         for (Index f = 0; f < mesh.n_faces(); ++f) {
             const Complex a = along_[3 * f], b = -along_[3 * f + 2];
             area += std::abs(cross(a, b)) / 2;

@@ -1275,9 +1275,7 @@ RegularisedForm regularise_zeros(const MeshView& mesh, const Eigen::VectorXcd& t
     std::vector<char> keep(mesh.n_faces(), 0);
     for (const ZeroRegion& r : regions)
         if (r.face >= 0) keep[r.face] = 1;
-    std::vector<Complex> along(mesh.n_halfedges());
-    for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
-    const Flipped flipped = flip_folds(mesh, std::move(along), keep);
+    const Flipped flipped = flip_folds(mesh, forms_along(mesh, tau), keep);
     if (flipped.flips == 0) return regularise_on(Triangles{mesh.V, mesh.F, mesh.twin, flipped.along}, regions, options);
     // Flips keep vertex and face ids and never touch a kept face: the regions hold as given.
     RegularisedForm out = regularise_on(Triangles{mesh.V, flipped.F, flipped.twin, flipped.along}, regions, options);

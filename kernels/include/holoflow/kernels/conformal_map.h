@@ -18,6 +18,13 @@ inline std::complex<double> form_along(const MeshView& mesh, const Eigen::Vector
     return static_cast<double>(mesh.edge_sign(h)) * tau(mesh.halfedge_edge[h]);
 }
 
+//! form_along of every halfedge, in halfedge order.
+inline std::vector<std::complex<double>> forms_along(const MeshView& mesh, const Eigen::VectorXcd& tau) {
+    std::vector<std::complex<double>> along(mesh.n_halfedges());
+    for (Index h = 0; h < mesh.n_halfedges(); ++h) along[h] = form_along(mesh, tau, h);
+    return along;
+}
+
 //! Image of corner k of face f in the face's own chart (corner 0 at the origin), from the form's
 //! values along the halfedges (`along[h]` = form_along(mesh, tau, h)).
 inline std::complex<double> chart_corner(std::span<const std::complex<double>> along, Index f, int k) {
