@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -11,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include <cholmod.h>
 #include <gtest/gtest.h>
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
@@ -18,6 +20,7 @@
 #include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/shapes.h"
+#include "support/test_support.h"
 
 // GCC's OpenMP entry point, which CHOLMOD calls for each parallel region (kernels/src/cholesky.cpp).
 extern "C" void GOMP_parallel(void (*body)(void*), void* data, unsigned num_threads, unsigned flags);
@@ -113,6 +116,71 @@ TEST(Cholesky, RefactorWithSameSymbolicEqualsFreshFactorization) {
     EXPECT_GT(relative_error(before->solve(B), X), 1e-6);  // the new values were used
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Upper> ldlt(upper_matrix(L));
     EXPECT_LT(relative_error(X, ldlt.solve(B)), kSolveTol);
+}
+
+//! X solving L X = B with CHOLMOD's own driver (cholmod_analyze, cholmod_factorize, cholmod_solve)
+//! under the settings CholeskySymbolic uses: AMD only, postordered, supernodal.
+Eigen::MatrixXd cholmod_driver_solve(const LaplacianMatrix& L, const Eigen::MatrixXd& B) {
+    cholmod_common c;
+    cholmod_start(&c);
+    c.nmethods = 1;
+    c.method[0].ordering = CHOLMOD_AMD;
+    c.postorder = 1;
+    c.supernodal = CHOLMOD_SUPERNODAL;
+    cholmod_sparse A{};
+    A.nrow = A.ncol = static_cast<std::size_t>(L.n);
+    A.nzmax = L.row.size();
+    A.p = const_cast<Index*>(L.col_start.data());
+    A.i = const_cast<Index*>(L.row.data());
+    A.x = const_cast<double*>(L.value.data());
+    A.stype = 1;
+    A.itype = CHOLMOD_INT;
+    A.xtype = CHOLMOD_REAL;
+    A.dtype = CHOLMOD_DOUBLE;
+    A.sorted = A.packed = 1;
+    cholmod_dense b{};
+    b.nrow = b.d = static_cast<std::size_t>(B.rows());
+    b.ncol = static_cast<std::size_t>(B.cols());
+    b.nzmax = b.nrow * b.ncol;
+    b.x = const_cast<double*>(B.data());
+    b.xtype = CHOLMOD_REAL;
+    b.dtype = CHOLMOD_DOUBLE;
+    cholmod_factor* F = cholmod_analyze(&A, &c);
+    Eigen::MatrixXd X;
+    if (F != nullptr && cholmod_factorize(&A, F, &c) && c.status == CHOLMOD_OK && F->is_super) {
+        cholmod_dense* x = cholmod_solve(CHOLMOD_A, F, &b, &c);
+        if (x != nullptr) X = Eigen::Map<const Eigen::MatrixXd>(static_cast<double*>(x->x), B.rows(), B.cols());
+        cholmod_free_dense(&x, &c);
+    }
+    cholmod_free_factor(&F, &c);
+    cholmod_finish(&c);
+    return X;
+}
+
+// CholeskyFactor hands CHOLMOD's supernodal factorization the permuted lower triangle it builds
+// once per analysis, where cholmod_factorize would transpose the matrix at every call: the same
+// entries in the same places, so the same bits as CHOLMOD's own driver.
+TEST(Cholesky, FactorEqualsCholmodDriverBitForBit) {
+    const std::vector<MeshView> meshes = {shapes::torus(2.0, 0.5, 60, 30), shapes::genus_surface(3, 3),
+                                          *test::corpus_mesh("eight"), *test::corpus_mesh("elephant")};
+    for (const MeshView& mesh : meshes) {
+        const LaplacianMatrix L = pinned_laplacian(jittered(mesh, kCholeskySeed, 0.01));
+        const Eigen::MatrixXd B = random_matrix(L.n, 5, kCholeskySeed + 2);
+        const Eigen::MatrixXd X = CholeskyFactor::factorize(CholeskySymbolic::analyse(L), L)->solve(B);
+        // After ours, which keeps OpenBLAS on one thread (a threaded BLAS rounds otherwise).
+        const Eigen::MatrixXd ref = cholmod_driver_solve(L, B);
+        ASSERT_EQ(ref.rows(), L.n) << "CHOLMOD's driver failed";
+        EXPECT_EQ(X, ref) << L.n << " rows";
+    }
+}
+
+// CHOLMOD's clock reads inside its factorization are skipped (kernels/src/cholesky.cpp defines
+// SuiteSparse_time for the program); any other caller still reads the clock.
+TEST(Cholesky, SuiteSparseClockOutsideCholmodIsTheClock) {
+    EXPECT_EQ(dlsym(RTLD_DEFAULT, "SuiteSparse_time"), reinterpret_cast<void*>(&SuiteSparse_time));
+    const double before = SuiteSparse_time();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_GE(SuiteSparse_time() - before, 0.019);
 }
 
 TEST(Cholesky, PatternMismatchIsRejected) {
