@@ -56,6 +56,11 @@ void require_connected(const kernels::Topology& topology) {
                                                    " components; use --component largest");
 }
 
+Eigen::Index solve_block_width(Eigen::Index columns) {
+    const Eigen::Index blocks = std::max<Eigen::Index>(1, (columns + kSolveBlockColumns - 1) / kSolveBlockColumns);
+    return std::max<Eigen::Index>(1, (columns + blocks - 1) / blocks);
+}
+
 namespace conformal_stage {
 
 ConformalWork prepare(std::shared_ptr<const MeshView> input_ptr, ConformalOptions options,
@@ -218,16 +223,16 @@ void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
 
 int begin_solves(ConformalWork& work) {
     work.solves_started = std::chrono::steady_clock::now();
-    const Eigen::Index columns = work.closed_forms().cols();
-    work.potential_blocks.assign((columns + kSolveBlockColumns - 1) / kSolveBlockColumns, {});
+    const Eigen::Index columns = work.closed_forms().cols(), width = solve_block_width(columns);
+    work.potential_blocks.assign((columns + width - 1) / width, {});
     return static_cast<int>(work.potential_blocks.size());
 }
 
 Eigen::MatrixXd solve_block(const ConformalWork& work, int block) {
     const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
-    const Eigen::Index first = block * kSolveBlockColumns;
+    const Eigen::Index width = solve_block_width(eta.cols()), first = block * width;
     HOLOFLOW_REQUIRE(block >= 0 && first < eta.cols(), "solve block out of range");
-    const Eigen::Index count = std::min(kSolveBlockColumns, eta.cols() - first);
+    const Eigen::Index count = std::min(width, eta.cols() - first);
     return kernels::harmonic_potential(work.laplace_mesh().E, work.weights, *work.factor,
                                        eta.middleCols(first, count), work.pinned);
 }

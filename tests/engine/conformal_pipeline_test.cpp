@@ -180,6 +180,19 @@ TEST(Conformal, SameBitsForOneAndTwoThreads) {
     EXPECT_EQ(one.basis.period_matrix, two.basis.period_matrix);
 }
 
+// Solve blocks: as few as kSolveBlockColumns allows, of equal widths up to the last one.
+TEST(Conformal, SolveBlocksAreFewAndEven) {
+    EXPECT_EQ(solve_block_width(2), 2);
+    EXPECT_EQ(solve_block_width(kSolveBlockColumns), kSolveBlockColumns);
+    EXPECT_EQ(solve_block_width(kSolveBlockColumns + 1), kSolveBlockColumns / 2 + 1);
+    for (Eigen::Index columns = 1; columns <= 600; ++columns) {
+        const Eigen::Index width = solve_block_width(columns), blocks = (columns + width - 1) / width;
+        EXPECT_LE(width, kSolveBlockColumns) << columns;
+        EXPECT_EQ(blocks, (columns + kSolveBlockColumns - 1) / kSolveBlockColumns) << columns;
+        EXPECT_GT(columns - (blocks - 1) * width, width - blocks) << columns;  // the last block
+    }
+}
+
 TEST(Conformal, StageTimesAddUpToAtMostTheWallTime) {
     // homology and factorise run side by side; `overlap` takes back the doubly counted time.
     const auto mesh = test::corpus_mesh("femur");
