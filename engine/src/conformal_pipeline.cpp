@@ -223,18 +223,28 @@ void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
 
 int begin_solves(ConformalWork& work) {
     work.solves_started = std::chrono::steady_clock::now();
-    const Eigen::Index columns = work.closed_forms().cols(), width = solve_block_width(columns);
-    work.potential_blocks.assign((columns + width - 1) / width, {});
-    return static_cast<int>(work.potential_blocks.size());
+    const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
+    work.laplace_closed_forms = eta.sparseView();
+    const Eigen::Index columns = eta.cols(), width = solve_block_width(columns);
+    work.result.harmonic.resize(work.result.surface->n_edges(), columns);  // every column written by its block
+    return static_cast<int>((columns + width - 1) / width);
 }
 
-Eigen::MatrixXd solve_block(const ConformalWork& work, int block) {
-    const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
+void solve_block(ConformalWork& work, int block) {
+    ConformalResult& r = work.result;
+    const bool intrinsic = work.intrinsic_laplacian();
+    const Eigen::MatrixXd& eta = intrinsic ? work.intrinsic.forms : work.closed_forms();
     const Eigen::Index width = solve_block_width(eta.cols()), first = block * width;
     HOLOFLOW_REQUIRE(block >= 0 && first < eta.cols(), "solve block out of range");
     const Eigen::Index count = std::min(width, eta.cols() - first);
-    return kernels::harmonic_potential(work.laplace_mesh().E, work.weights, *work.factor,
-                                       eta.middleCols(first, count), work.pinned);
+    const MeshView& laplace_mesh = work.laplace_mesh();
+    const Eigen::MatrixXd potential = kernels::harmonic_potential(laplace_mesh.E, work.weights, *work.factor,
+                                                                  eta.middleCols(first, count), work.pinned);
+    // The potential corrects the forms on both triangulations (it lives on the shared vertices);
+    // on the intrinsic one its carried forms become the harmonic ones in place.
+    kernels::plus_gradient_columns(r.surface->E, work.closed_forms(), potential, first, r.harmonic);
+    if (intrinsic)
+        kernels::plus_gradient_columns(laplace_mesh.E, work.intrinsic.forms, potential, first, work.intrinsic.forms);
 }
 
 void end_solves(ConformalWork& work) {
@@ -242,24 +252,7 @@ void end_solves(ConformalWork& work) {
     const MeshView& surface = *r.surface;
     const MeshView& laplace_mesh = work.laplace_mesh();
     work.factor.reset();
-    Eigen::MatrixXd potential(surface.n_vertices(), work.closed_forms().cols());
-    Eigen::Index column = 0;
-    for (Eigen::MatrixXd& block : work.potential_blocks) {
-        HOLOFLOW_REQUIRE(block.rows() == potential.rows() && column + block.cols() <= potential.cols(),
-                         "solve blocks do not match the forms");
-        potential.middleCols(column, block.cols()) = block;
-        column += block.cols();
-        block = {};
-    }
-    HOLOFLOW_REQUIRE(column == potential.cols(), "missing solve blocks");
-    work.potential_blocks.clear();
-    // The potential corrects the forms on both triangulations (it lives on the shared vertices);
-    // on the intrinsic one its carried forms become the harmonic ones in place.
-    work.laplace_closed_forms =
-        (work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms()).sparseView();
-    r.harmonic = kernels::plus_gradient(surface.E, work.closed_forms(), potential);
-    Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
-    if (work.intrinsic_laplacian()) kernels::add_gradient(laplace_mesh.E, potential, laplace_omega);
+    const Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
     {
         // Divergence left at the vertices, relative to the largest flux w_e omega_e it sums.
         Eigen::MatrixXd residual =
@@ -333,9 +326,8 @@ void run_after_prepare(ConformalWork& work, FactorizationCache* cache) {
     laplacian(work);
     homology_and_factorise(work, cache);
     const int blocks = begin_solves(work);
-    par::for_each_index(static_cast<std::size_t>(blocks), blocks > 1, [&](std::size_t b) {
-        work.potential_blocks[b] = solve_block(work, static_cast<int>(b));
-    });
+    par::for_each_index(static_cast<std::size_t>(blocks), blocks > 1,
+                        [&](std::size_t b) { solve_block(work, static_cast<int>(b)); });
     end_solves(work);
     hodge_star(work);
     integrate(work);

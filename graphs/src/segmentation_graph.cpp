@@ -125,7 +125,7 @@ struct Stages {
     void homology_and_factorise(ModelState& s) const {
         for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::homology_and_factorise(part.conformal, cache); });
     }
-    //! Sizes the block slots; returns the number of blocks (of all parts).
+    //! Sizes the harmonic forms; returns the number of blocks (of all parts).
     int begin_solves(ModelState& s) const {
         s.first_block.assign(1, 0);
         for_each_part(s.parts, [&](engine::SegmentationWork& part) {
@@ -136,14 +136,14 @@ struct Stages {
         s.blocks_left.store(blocks);
         return blocks;
     }
-    //! Solves one block into its own slot; never throws (the error waits in its slot).
+    //! Solves one block into its columns; never throws (the error waits in its slot).
     void solve(ModelState& s, int block) const {
         try {
             const std::size_t p =
                 std::upper_bound(s.first_block.begin(), s.first_block.end(), block) - s.first_block.begin() - 1;
             const int local = block - s.first_block[p];
             engine::ConformalWork& c = s.parts[p].conformal;
-            c.potential_blocks[local] = conformal_stage::solve_block(c, local);
+            conformal_stage::solve_block(c, local);
         } catch (...) {
             s.block_errors[block] = std::current_exception();
         }

@@ -59,29 +59,29 @@ Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> 
     return factor.solve(harmonic_rhs(factor.size(), E, w, eta, pinned));
 }
 
-namespace {
-//! omega = eta + d f column by column; omega may be eta itself (add_gradient).
-void sum_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
-    HOLOFLOW_REQUIRE(eta.rows() == E.rows() && f.cols() == eta.cols(),
-                     "need one form value per edge and one potential per form");
+void plus_gradient_columns(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f,
+                           Eigen::Index first, Eigen::MatrixXd& omega) {
+    HOLOFLOW_REQUIRE(eta.rows() == E.rows() && omega.rows() == E.rows() && omega.cols() == eta.cols(),
+                     "need one form value per edge, as many forms in and out");
+    HOLOFLOW_REQUIRE(first >= 0 && first + f.cols() <= eta.cols(), "form columns out of range");
     HOLOFLOW_REQUIRE(E.size() == 0 || E.maxCoeff() < f.rows(), "edge vertex index out of range");
-    omega.resize(eta.rows(), eta.cols());  // no-op when omega is eta
-    for_each_column(E.rows(), eta.cols(), [&](Eigen::Index c) {
-        double* out = omega.col(c).data();
-        const double* in = eta.col(c).data();
+    for_each_column(E.rows(), f.cols(), [&](Eigen::Index c) {
+        double* out = omega.col(first + c).data();
+        const double* in = eta.col(first + c).data();
         const double* fc = f.col(c).data();
         for (Eigen::Index e = 0; e < E.rows(); ++e) out[e] = in[e] + (fc[E(e, 1)] - fc[E(e, 0)]);
     });
 }
-}  // namespace
 
 void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd& omega) {
-    sum_gradient(E, omega, f, omega);
+    HOLOFLOW_REQUIRE(f.cols() == omega.cols(), "need one potential per form");
+    plus_gradient_columns(E, omega, f, 0, omega);
 }
 
 Eigen::MatrixXd plus_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f) {
-    Eigen::MatrixXd omega;
-    sum_gradient(E, eta, f, omega);
+    HOLOFLOW_REQUIRE(f.cols() == eta.cols(), "need one potential per form");
+    Eigen::MatrixXd omega(eta.rows(), eta.cols());
+    plus_gradient_columns(E, eta, f, 0, omega);
     return omega;
 }
 

@@ -174,6 +174,20 @@ TEST(Gradient, PlusGradientIsCopyThenAddGradient) {
     add_gradient(t.mesh.E, f, expected);
     EXPECT_EQ(plus_gradient(t.mesh.E, eta, f), expected);  // the same bits
     EXPECT_THROW(plus_gradient(t.mesh.E, eta.topRows(3), f), InvalidInput);
+
+    // Column by column, as the solve blocks write them: the same bits, the rest untouched.
+    Eigen::MatrixXd blocks = Eigen::MatrixXd::Constant(eta.rows(), eta.cols(), 7.0);
+    plus_gradient_columns(t.mesh.E, eta, f.rightCols(1), 2, blocks);
+    EXPECT_EQ(blocks.col(2), expected.col(2));
+    EXPECT_TRUE((blocks.leftCols(2).array() == 7.0).all());
+    plus_gradient_columns(t.mesh.E, eta, f.leftCols(2), 0, blocks);
+    EXPECT_EQ(blocks, expected);
+    Eigen::MatrixXd in_place = eta;  // omega may be eta itself
+    plus_gradient_columns(t.mesh.E, in_place, f.middleCols(1, 2), 1, in_place);
+    EXPECT_EQ(in_place.rightCols(2), expected.rightCols(2));
+    EXPECT_EQ(in_place.col(0), eta.col(0));
+    EXPECT_THROW(plus_gradient_columns(t.mesh.E, eta, f.leftCols(2), 2, blocks), InvalidInput);
+    EXPECT_THROW(plus_gradient_columns(t.mesh.E, eta, f, -1, blocks), InvalidInput);
 }
 
 TEST(HarmonicProjection, TorusFormsBecomeCoclosedInTheirClass) {

@@ -110,7 +110,6 @@ struct ConformalWork {
     std::vector<Index> pinned;
     kernels::LaplacianMatrix laplacian;
     std::shared_ptr<const kernels::CholeskyFactor> factor;
-    std::vector<Eigen::MatrixXd> potential_blocks;  //!< one per solve block, each written by its own task
     //! The closed forms on laplace_mesh()'s edges, sparse (the intrinsic ones become harmonic in
     //! place): what the Hodge star's inner products need.
     Eigen::SparseMatrix<double> laplace_closed_forms;
@@ -148,12 +147,14 @@ void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times
 //! wall time minus their sum (negative when they overlapped), so the stage times add up to wall
 //! time. Homology's error is thrown first when both fail.
 void homology_and_factorise(ConformalWork& work, FactorizationCache* cache = nullptr);
-//! Sizes potential_blocks and returns their number (starts the `solves` clock).
+//! Starts the `solves` clock, keeps the closed forms on laplace_mesh() for the Hodge star (the
+//! blocks turn the carried ones harmonic in place), sizes the harmonic forms; returns the number
+//! of solve blocks.
 int begin_solves(ConformalWork& work);
-//! The potentials of block `block`'s columns (for potential_blocks[block]); reads `work` only,
-//! so blocks may run at once.
-Eigen::MatrixXd solve_block(const ConformalWork& work, int block);
-//! Harmonic forms from the block potentials (which it consumes), co-closedness check.
+//! Solves block `block`'s columns and writes those columns of the harmonic forms (and of the
+//! carried forms, in place); blocks write disjoint columns, so they may run at once.
+void solve_block(ConformalWork& work, int block);
+//! Drops the factor; co-closedness check of the harmonic forms.
 void end_solves(ConformalWork& work);
 //! Hodge star, canonical basis, period matrix, closedness.
 void hodge_star(ConformalWork& work);

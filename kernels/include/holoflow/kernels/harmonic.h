@@ -39,6 +39,13 @@ void add_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& f, Eigen::MatrixXd
 //! #E x k matrix). \throw InvalidInput on mismatched sizes.
 Eigen::MatrixXd plus_gradient(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f);
 
+//! The same for the columns first .. first + f.cols() - 1 only: omega's columns there become
+//! eta's plus d f (f's columns in order); omega keeps its size and its other columns, and may be
+//! eta itself. Tasks writing disjoint column ranges of one omega may run at once.
+//! \throw InvalidInput on mismatched sizes or columns out of range.
+void plus_gradient_columns(const EdgeMatrix& E, const Eigen::MatrixXd& eta, const Eigen::MatrixXd& f,
+                           Eigen::Index first, Eigen::MatrixXd& omega);
+
 //! \brief Harmonic part of closed 1-forms (DESIGN 2.3): omega = eta + d f with L f = -delta eta,
 //! the co-closed representative of eta's cohomology class for the weights w (delta omega = 0).
 //! E are the edges (1-forms measured from E(e,0) to E(e,1)), eta is #E x k, `factor` the Cholesky
