@@ -19,7 +19,7 @@ void for_each_column(Eigen::Index n_edges, Eigen::Index n_cols, const Fn& fn) {
 }  // namespace
 
 Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
-                               const Eigen::MatrixXd& omega) {
+                               const FormColumns& omega) {
     HOLOFLOW_REQUIRE(w.size() == static_cast<std::size_t>(E.rows()), "need one weight per edge");
     HOLOFLOW_REQUIRE(omega.rows() == E.rows(), "need one form value per edge");
     HOLOFLOW_REQUIRE(E.size() == 0 || (E.minCoeff() >= 0 && E.maxCoeff() < n_vertices),
@@ -43,7 +43,7 @@ Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<
 }
 
 Eigen::MatrixXd harmonic_rhs(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
-                             const Eigen::MatrixXd& eta, std::span<const Index> pinned) {
+                             const FormColumns& eta, std::span<const Index> pinned) {
     HOLOFLOW_REQUIRE(eta.rows() == E.rows(), "need one form value per edge");
     for (Index p : pinned)
         HOLOFLOW_REQUIRE(p >= 0 && p < n_vertices, "pinned vertex " + std::to_string(p) + " out of range");
@@ -54,7 +54,7 @@ Eigen::MatrixXd harmonic_rhs(Index n_vertices, const EdgeMatrix& E, std::span<co
 }
 
 Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> w,
-                                   const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
+                                   const CholeskyFactor& factor, const FormColumns& eta,
                                    std::span<const Index> pinned) {
     return factor.solve(harmonic_rhs(factor.size(), E, w, eta, pinned));
 }

@@ -9,18 +9,21 @@
 
 namespace holoflow::kernels {
 
+//! #E x k forms, or a range of their columns: a matrix or its middleCols bind without a copy.
+using FormColumns = Eigen::Ref<const Eigen::MatrixXd>;
+
 //! \brief Co-differential (weighted divergence) of 1-forms on edges: d^T W omega, i.e.
 //! (delta omega)_v = sum over edges e at v of +w_e omega_e where v = E(e,1) (head) and -w_e
 //! omega_e where v = E(e,0) (tail). Loops cancel. delta d equals the LaplacianMatrix of w.
 //! omega is #E x k; returns #V x k. Deterministic (fixed edge order per column).
 //! \throw InvalidInput on mismatched sizes or vertex indices out of range.
 Eigen::MatrixXd codifferential(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
-                               const Eigen::MatrixXd& omega);
+                               const FormColumns& omega);
 
 //! Right-hand sides of harmonic_potential: -delta(eta) (#V x k), zero at the pinned vertices.
 //! \throw InvalidInput on mismatched sizes or a pinned vertex out of range.
 Eigen::MatrixXd harmonic_rhs(Index n_vertices, const EdgeMatrix& E, std::span<const double> w,
-                             const Eigen::MatrixXd& eta, std::span<const Index> pinned);
+                             const FormColumns& eta, std::span<const Index> pinned);
 
 //! \brief Potential f (#V x k) of the harmonic part of closed 1-forms: L f = -delta(eta), so
 //! eta + d f is co-closed for the weights w. Vertex functions are shared by every triangulation
@@ -28,7 +31,7 @@ Eigen::MatrixXd harmonic_rhs(Index n_vertices, const EdgeMatrix& E, std::span<co
 //! mesh's own edges too. All k right-hand sides go through one solve; f = 0 at pinned vertices.
 //! \throw InvalidInput on mismatched sizes; SolverFailure from the solve.
 Eigen::MatrixXd harmonic_potential(const EdgeMatrix& E, std::span<const double> w,
-                                   const CholeskyFactor& factor, const Eigen::MatrixXd& eta,
+                                   const CholeskyFactor& factor, const FormColumns& eta,
                                    std::span<const Index> pinned);
 
 //! omega += d f along E(e,0) -> E(e,1), column by column (in parallel on large meshes).
