@@ -140,6 +140,8 @@ void homology(ConformalWork& work, StageTimes& times) {
     }
     // A depends on the classes only: ready here, off the solves' path.
     work.wedge = kernels::wedge_matrix(*r.surface, work.closed_forms());
+    // So does the cover's involution on them (the solves take the closed forms over).
+    if (r.double_covered) work.involution = kernels::involution_matrix(*r.cover, r.homology);
     clock.lap("wedge_matrix");
     if (work.intrinsic_laplacian()) {
         HOLOFLOW_REQUIRE(work.intrinsic.form_slot.size() == static_cast<std::size_t>(r.surface->n_edges()),
@@ -150,15 +152,15 @@ void homology(ConformalWork& work, StageTimes& times) {
 }
 
 // Refuses (ResourceLimit) a model whose conformal stage would need more than the limit: the
-// supernodal factor (0 before the analysis) and the dense forms, 2g columns each: closed forms,
-// their carried copy and the harmonic forms on the edges, right-hand sides and potentials on the
-// vertices (fandisk with 470 holes, 2g = 938: 0.93 GB estimated, 1.0 GB peak RSS).
+// supernodal factor (0 before the analysis) and the dense forms, 2g columns each: the closed
+// forms (which become the harmonic ones) and their carried copy on the edges, right-hand sides,
+// potentials and the co-closedness residual on the vertices.
 void check_memory(const ConformalWork& work, std::size_t factor_nonzeros) {
     if (work.options.max_solver_bytes == 0) return;
     const auto columns = static_cast<std::size_t>(std::max<Index>(work.form_count(), 0));
     const auto edges = static_cast<std::size_t>(work.result.surface->n_edges());
     const auto vertices = static_cast<std::size_t>(work.result.surface->n_vertices());
-    const std::size_t bytes = 8 * (factor_nonzeros + columns * (3 * edges + 3 * vertices));
+    const std::size_t bytes = 8 * (factor_nonzeros + columns * (2 * edges + 3 * vertices));
     if (bytes > work.options.max_solver_bytes)
         throw ResourceLimit("the conformal stage would need about " + std::to_string(bytes >> 20) +
                             " MiB (" + std::to_string(columns) + " forms), over the limit of " +
@@ -223,17 +225,27 @@ void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
 
 int begin_solves(ConformalWork& work) {
     work.solves_started = std::chrono::steady_clock::now();
+    ConformalResult& r = work.result;
     const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
     work.laplace_closed_forms = eta.sparseView();
     const Eigen::Index columns = eta.cols(), width = solve_block_width(columns);
-    work.result.harmonic.resize(work.result.surface->n_edges(), columns);  // every column written by its block
+    // The harmonic forms are the closed ones plus a gradient, which each block adds to its
+    // columns in place: the closed forms' storage becomes theirs (one #E x 2g matrix less to
+    // allocate and fault in). Given forms stay the caller's, so they are copied.
+    if (work.options.closed_forms) {
+        r.harmonic = *work.options.closed_forms;
+    } else {
+        r.harmonic.swap(r.homology.closed_forms);
+        r.homology.closed_forms.resize(0, 0);
+    }
     return static_cast<int>((columns + width - 1) / width);
 }
 
 void solve_block(ConformalWork& work, int block) {
     ConformalResult& r = work.result;
     const bool intrinsic = work.intrinsic_laplacian();
-    const Eigen::MatrixXd& eta = intrinsic ? work.intrinsic.forms : work.closed_forms();
+    // Until this block adds its gradient, its columns of both still hold the closed forms.
+    const Eigen::MatrixXd& eta = intrinsic ? work.intrinsic.forms : r.harmonic;
     const Eigen::Index width = solve_block_width(eta.cols()), first = block * width;
     HOLOFLOW_REQUIRE(block >= 0 && first < eta.cols(), "solve block out of range");
     const Eigen::Index count = std::min(width, eta.cols() - first);
@@ -242,7 +254,7 @@ void solve_block(ConformalWork& work, int block) {
                                                                   eta.middleCols(first, count), work.pinned);
     // The potential corrects the forms on both triangulations (it lives on the shared vertices);
     // on the intrinsic one its carried forms become the harmonic ones in place.
-    kernels::plus_gradient_columns(r.surface->E, work.closed_forms(), potential, first, r.harmonic);
+    kernels::plus_gradient_columns(r.surface->E, r.harmonic, potential, first, r.harmonic);
     if (intrinsic)
         kernels::plus_gradient_columns(laplace_mesh.E, work.intrinsic.forms, potential, first, work.intrinsic.forms);
 }
@@ -286,9 +298,8 @@ void integrate(ConformalWork& work) {
     r.form = work.options.form;
     const bool integer = r.form == FormChoice::IntegerPeriods;
     if (r.double_covered) {
-        const Eigen::MatrixXi S = kernels::involution_matrix(*r.cover, r.homology);
-        r.form_coefficients =
-            integer ? kernels::even_integer_form_coefficients(S) : kernels::even_form_coefficients(S);
+        r.form_coefficients = integer ? kernels::even_integer_form_coefficients(work.involution)
+                                      : kernels::even_form_coefficients(work.involution);
     } else {
         r.form_coefficients = integer ? kernels::integer_form_coefficients(r.harmonic.cols())
                                       : kernels::generic_form_coefficients(r.harmonic.cols());

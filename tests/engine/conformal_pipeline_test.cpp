@@ -10,6 +10,7 @@
 
 #include "holoflow/engine/mesh_loader.h"
 #include "holoflow/kernels/shapes.h"
+#include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/subdivision.h"
 #include "support/test_support.h"
 
@@ -78,8 +79,8 @@ TEST_P(ConformalCorpus, StarErrorsFallAndPeriodsStayUnderSubdivision) {
     const ConformalResult coarse = compute_conformal(*mesh);
     const MeshView fine_mesh = kernels::subdivide_midpoint(*mesh);
     ConformalOptions carried;
-    carried.closed_forms =
-        kernels::subdivide_forms_midpoint(*mesh, fine_mesh, coarse.homology.closed_forms);
+    carried.closed_forms = kernels::subdivide_forms_midpoint(  // the coarse run's own (its root)
+        *mesh, fine_mesh, kernels::compute_homology_basis(*coarse.surface).closed_forms);
     const ConformalResult fine = compute_conformal(fine_mesh, carried);
     EXPECT_LT(fine.star.star_square_error, coarse.star.star_square_error);
     EXPECT_LT(fine.star.star_isometry_error, coarse.star.star_isometry_error);
@@ -153,7 +154,7 @@ TEST(Conformal, MemoryLimitRefusesBeforeTheFormsAreAllocated) {
     EXPECT_THROW(conformal_stage::homology_and_factorise(work), ResourceLimit);
     EXPECT_EQ(work.result.homology.closed_forms.size(), 0);
 
-    const auto forms_bytes = static_cast<std::size_t>(8 * 266 * (3 * cheese->n_edges() + 3 * cheese->n_vertices()));
+    const auto forms_bytes = static_cast<std::size_t>(8 * 266 * (2 * cheese->n_edges() + 3 * cheese->n_vertices()));
     options.max_solver_bytes = forms_bytes + 1024;  // the forms fit, the factor does not
     ConformalWork fits = conformal_stage::prepare(cheese, options);
     conformal_stage::laplacian(fits);
@@ -166,6 +167,31 @@ TEST(Conformal, MemoryLimitRefusesBeforeTheFormsAreAllocated) {
     EXPECT_EQ(fits.factor, nullptr);
     options.max_solver_bytes = 0;  // no limit
     EXPECT_NO_THROW(compute_conformal(*cheese, options));
+}
+
+// The solves turn the homology's closed forms into the harmonic ones in place: the result keeps
+// no closed forms, the harmonic forms keep their periods (delta_ij on the homology loops), and
+// the same forms given by the caller (copied) give the same bits.
+TEST(Conformal, ClosedFormsBecomeTheHarmonicOnes) {
+    for (const auto& [name, laplacian] : {std::pair{"eight", LaplacianKind::IntrinsicDelaunay},
+                                          std::pair{"eight", LaplacianKind::Extrinsic},
+                                          std::pair{"head", LaplacianKind::IntrinsicDelaunay}}) {
+        SCOPED_TRACE(std::string(name) + (laplacian == LaplacianKind::Extrinsic ? " extrinsic" : ""));
+        const auto mesh = test::corpus_mesh(name);
+        ConformalOptions options;
+        options.laplacian = laplacian;
+        const ConformalResult c = compute_conformal(*mesh, options);
+        EXPECT_EQ(c.homology.closed_forms.size(), 0);
+        const Eigen::Index n = c.harmonic.cols();
+        ASSERT_EQ(static_cast<std::size_t>(n), c.homology.loops.size());
+        Eigen::MatrixXd periods(n, n);
+        for (Eigen::Index j = 0; j < n; ++j)
+            periods.col(j) = kernels::integrate_along(*c.surface, c.harmonic, c.homology.loops[j]);
+        EXPECT_LT((periods - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff(), 1e-9);
+        if (c.double_covered) continue;  // given forms need closed input
+        options.closed_forms = kernels::compute_homology_basis(*c.surface).closed_forms;
+        EXPECT_TRUE(compute_conformal(*mesh, options).harmonic == c.harmonic);
+    }
 }
 
 TEST(Conformal, SameBitsForOneAndTwoThreads) {

@@ -18,6 +18,7 @@
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/holomorphic.h"
 #include "holoflow/kernels/shapes.h"
+#include "holoflow/kernels/homology.h"
 #include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/topology.h"
 #include "support/test_support.h"
@@ -800,8 +801,8 @@ TEST(Segmentation, MidpointSubdivisionKeepsZerosAndPatches) {
     const SegmentationResult coarse = segment(*coarse_mesh);
     // The same cohomology basis on both meshes, so the generic form is the same form.
     SegmentOptions same_form;
-    same_form.conformal.closed_forms =
-        kernels::subdivide_forms_midpoint(*coarse_mesh, fine_mesh, coarse.conformal.homology.closed_forms);
+    same_form.conformal.closed_forms = kernels::subdivide_forms_midpoint(
+        *coarse_mesh, fine_mesh, kernels::compute_homology_basis(*coarse.conformal.surface).closed_forms);
     const SegmentationResult fine = segment(fine_mesh, same_form);
     EXPECT_EQ(coarse.zeros.total_order, fine.zeros.total_order);
     EXPECT_EQ(coarse.zeros.zeros.size(), fine.zeros.zeros.size());

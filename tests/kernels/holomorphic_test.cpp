@@ -167,7 +167,8 @@ TEST(HodgeStar, InnerProductsFromTheClosedFormsAreTheGramMatrix) {
         const engine::ConformalResult c = engine::compute_conformal(*mesh);
         ASSERT_NE(c.intrinsic, nullptr);
         const IntrinsicTriangulation& t = *c.intrinsic;
-        const Eigen::MatrixXd eta = carry_forms(t, c.homology.closed_forms), omega = carry_forms(t, c.harmonic);
+        const Eigen::MatrixXd eta = carry_forms(t, compute_homology_basis(*c.surface).closed_forms),
+                              omega = carry_forms(t, c.harmonic);
         const std::vector<double>& w = c.laplace_weights;  // the Laplacian's, on t's edges
         ASSERT_EQ(static_cast<Index>(w.size()), t.mesh.n_edges());
         const Eigen::Map<const Eigen::VectorXd> weight(w.data(), static_cast<Eigen::Index>(w.size()));

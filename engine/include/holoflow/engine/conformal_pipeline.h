@@ -69,6 +69,7 @@ struct ConformalResult {
     bool double_covered = false;
     std::shared_ptr<const MeshView> surface;       //!< the closed surface worked on
     std::shared_ptr<const kernels::DoubleCover> cover;  //!< set for open input
+    //! The cut graph and loops; its closed forms become `harmonic` (empty once the solves begin).
     kernels::HomologyBasis homology;
     Eigen::MatrixXd harmonic;                //!< #E x 2g omega_i on `surface`'s edges
     kernels::HodgeStar star;
@@ -107,6 +108,7 @@ struct ConformalWork {
     kernels::IntrinsicTriangulation intrinsic;  //!< with LaplacianKind::IntrinsicDelaunay
     std::vector<double> weights;                //!< cotan weights on laplace_mesh()'s edges
     Eigen::MatrixXd wedge;                      //!< 2g x 2g wedge matrix of the closed forms
+    Eigen::MatrixXi involution;                 //!< 2g x 2g action of the cover's involution (open input)
     std::vector<Index> pinned;
     kernels::LaplacianMatrix laplacian;
     std::shared_ptr<const kernels::CholeskyFactor> factor;
@@ -116,8 +118,10 @@ struct ConformalWork {
     std::chrono::steady_clock::time_point solves_started;
 
     bool intrinsic_laplacian() const { return options.laplacian == LaplacianKind::IntrinsicDelaunay; }
-    //! The triangulation the Laplacian is built on, and the closed forms on it.
+    //! The triangulation the Laplacian is built on.
     const MeshView& laplace_mesh() const { return intrinsic_laplacian() ? intrinsic.mesh : *result.surface; }
+    //! The closed forms on `surface`'s edges: given ones, or the homology's until begin_solves
+    //! turns them into the harmonic forms.
     const Eigen::MatrixXd& closed_forms() const {
         return options.closed_forms ? *options.closed_forms : result.homology.closed_forms;
     }
@@ -137,8 +141,9 @@ ConformalWork prepare(std::shared_ptr<const MeshView> input, ConformalOptions op
 //! Intrinsic Delaunay flips (or the mesh itself), cotan weights, the Laplacian with one vertex
 //! pinned.
 void laplacian(ConformalWork& work);
-//! Tree-cotree cut graph, homology loops, closed forms, their wedge matrix; the forms carried onto
-//! the intrinsic triangulation (so after `laplacian`). Stage times go to `times`.
+//! Tree-cotree cut graph, homology loops, closed forms, their wedge matrix (and the involution's
+//! action on them, for open input); the forms carried onto the intrinsic triangulation (so after
+//! `laplacian`). Stage times go to `times`.
 void homology(ConformalWork& work, StageTimes& times);
 //! Symbolic analysis (from `cache` when given and its pattern was seen), memory check, numeric
 //! factor. Stage times go to `times`.
@@ -147,12 +152,13 @@ void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times
 //! wall time minus their sum (negative when they overlapped), so the stage times add up to wall
 //! time. Homology's error is thrown first when both fail.
 void homology_and_factorise(ConformalWork& work, FactorizationCache* cache = nullptr);
-//! Starts the `solves` clock, keeps the closed forms on laplace_mesh() for the Hodge star (the
-//! blocks turn the carried ones harmonic in place), sizes the harmonic forms; returns the number
-//! of solve blocks.
+//! Starts the `solves` clock, keeps the closed forms on laplace_mesh() for the Hodge star, and
+//! moves the closed forms into the harmonic forms (copies given ones): the blocks turn both those
+//! and the carried ones harmonic in place. Returns the number of solve blocks.
 int begin_solves(ConformalWork& work);
-//! Solves block `block`'s columns and writes those columns of the harmonic forms (and of the
-//! carried forms, in place); blocks write disjoint columns, so they may run at once.
+//! Solves block `block`'s columns and adds the potential's gradient to those columns of the
+//! harmonic forms (and of the carried forms); blocks write disjoint columns, so they may run at
+//! once.
 void solve_block(ConformalWork& work, int block);
 //! Drops the factor; co-closedness check of the harmonic forms.
 void end_solves(ConformalWork& work);
