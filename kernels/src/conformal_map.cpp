@@ -109,31 +109,48 @@ double triangle_distortion(double a, double b, double c, Complex t0, Complex t2)
     return (conformal + anticonformal) / std::abs(conformal - anticonformal);
 }
 
-MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
-                       const Eigen::VectorXcd& tau) {
+namespace {
+
+enum FaceState : char { kGood, kFlipped, kDegenerate };
+
+// Per face in parallel (each face writes its own slots): the distortion (infinity where
+// degenerate) and, when `state` is given, whether the image is flipped or degenerate.
+std::vector<double> measure_faces(const MeshView& mesh, std::span<const double> edge_length, const Eigen::VectorXcd& tau,
+                                  std::vector<char>* state) {
     HOLOFLOW_REQUIRE(static_cast<Index>(edge_length.size()) == mesh.n_edges() &&
                          tau.size() == mesh.n_edges(),
                      "lengths and form must have one value per edge");
-    MapQuality q;
-    q.face_distortion.assign(mesh.n_faces(), std::numeric_limits<double>::infinity());
-    // Per-face results in parallel (each face writes its own slot), counts gathered after.
-    enum : char { kGood, kFlipped, kDegenerate };
-    std::vector<char> state(mesh.n_faces(), kGood);
-    const auto measure = [&](std::size_t begin, std::size_t end) {
-    for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
-        const Index h0 = 3 * f, h1 = 3 * f + 1, h2 = 3 * f + 2;
-        const Complex t0 = form_along(mesh, tau, h0), t2 = -form_along(mesh, tau, h2);
-        const double d = triangle_distortion(edge_length[mesh.halfedge_edge[h0]], edge_length[mesh.halfedge_edge[h1]],
-                                             edge_length[mesh.halfedge_edge[h2]], t0, t2);
-        if (!std::isfinite(d)) {
-            state[f] = kDegenerate;
-            continue;
+    std::vector<double> distortion(mesh.n_faces(), std::numeric_limits<double>::infinity());
+    if (state) state->assign(mesh.n_faces(), kGood);
+    par::for_each_range(static_cast<std::size_t>(mesh.n_faces()), kParallelFaces, [&](std::size_t begin, std::size_t end) {
+        for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
+            const Index h0 = 3 * f, h1 = 3 * f + 1, h2 = 3 * f + 2;
+            const Complex t0 = form_along(mesh, tau, h0), t2 = -form_along(mesh, tau, h2);
+            const double d = triangle_distortion(edge_length[mesh.halfedge_edge[h0]], edge_length[mesh.halfedge_edge[h1]],
+                                                 edge_length[mesh.halfedge_edge[h2]], t0, t2);
+            if (!std::isfinite(d)) {
+                if (state) (*state)[f] = kDegenerate;
+                continue;
+            }
+            if (state && cross(t0, t2) < 0) (*state)[f] = kFlipped;
+            distortion[f] = d;
         }
-        if (cross(t0, t2) < 0) state[f] = kFlipped;
-        q.face_distortion[f] = d;
-    }
-    };
-    par::for_each_range(static_cast<std::size_t>(mesh.n_faces()), kParallelFaces, measure);
+    });
+    return distortion;
+}
+
+}  // namespace
+
+std::vector<double> face_distortion(const MeshView& mesh, std::span<const double> edge_length,
+                                    const Eigen::VectorXcd& tau) {
+    return measure_faces(mesh, edge_length, tau, nullptr);
+}
+
+MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
+                       const Eigen::VectorXcd& tau) {
+    MapQuality q;
+    std::vector<char> state;
+    q.face_distortion = measure_faces(mesh, edge_length, tau, &state);
     std::vector<double> finite;
     finite.reserve(mesh.n_faces());
     for (Index f = 0; f < mesh.n_faces(); ++f) {

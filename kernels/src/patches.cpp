@@ -701,7 +701,7 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     }
 
     const Index np = static_cast<Index>(p.info.size());
-    const MapQuality quality = map_quality(mesh, edge_lengths(mesh), tau);
+    const std::vector<double> face_distortion = kernels::face_distortion(mesh, edge_lengths(mesh), tau);
     std::vector<Complex> lo(np, Complex(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()));
     std::vector<Complex> hi(np, -lo[0]);
     std::vector<double> distortion_sum(np, 0);
@@ -717,7 +717,7 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
             lo[id] = {std::min(lo[id].real(), z.real()), std::min(lo[id].imag(), z.imag())};
             hi[id] = {std::max(hi[id].real(), z.real()), std::max(hi[id].imag(), z.imag())};
         }
-        const double d = quality.face_distortion[f];
+        const double d = face_distortion[f];
         if (std::isfinite(d)) {
             distortion_sum[id] += d;
             ++distortion_count[id];

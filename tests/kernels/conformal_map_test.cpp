@@ -1,7 +1,10 @@
 #include "holoflow/kernels/conformal_map.h"
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
+#include <limits>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -42,6 +45,13 @@ TEST(MapQuality, StretchAndFlipAreMeasured) {
     EXPECT_NEAR(stretched.distortion_mean, 3.0, 1e-9);
     for (auto& t : tau) t = std::conj(t);  // a reflection flips every image triangle
     EXPECT_EQ(map_quality(grid, edge_lengths(grid), tau).flipped, grid.n_faces());
+    // The distortion alone is the same per face, flipped or not; a collapsed face has none.
+    tau(0) = 0;
+    const std::vector<double> alone = face_distortion(grid, edge_lengths(grid), tau);
+    const MapQuality with_counts = map_quality(grid, edge_lengths(grid), tau);
+    EXPECT_EQ(alone, with_counts.face_distortion);
+    EXPECT_GT(with_counts.degenerate, 0);
+    EXPECT_EQ(std::count(alone.begin(), alone.end(), std::numeric_limits<double>::infinity()), with_counts.degenerate);
 }
 
 TEST(ClosednessError, ExactFormsAreClosedAndNoiseIsNot) {

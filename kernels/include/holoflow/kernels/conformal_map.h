@@ -75,6 +75,10 @@ struct MapQuality {
 MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
                        const Eigen::VectorXcd& tau);
 
+//! MapQuality::face_distortion alone, without the counts and statistics.
+std::vector<double> face_distortion(const MeshView& mesh, std::span<const double> edge_length,
+                                    const Eigen::VectorXcd& tau);
+
 //! Conformal distortion (as in MapQuality) of the affine map taking a triangle with edge lengths
 //! a = |c0 c1|, b = |c1 c2|, c = |c2 c0| to the image with edge vectors c0 -> c1 = t0 and
 //! c0 -> c2 = t2; infinity when the triangle or its image is degenerate.
