@@ -9,8 +9,8 @@
 #include <tbb/global_control.h>
 
 #include "holoflow/engine/mesh_loader.h"
-#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/subdivision.h"
 #include "support/test_support.h"
 

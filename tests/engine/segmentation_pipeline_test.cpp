@@ -17,8 +17,8 @@
 
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/holomorphic.h"
-#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/homology.h"
+#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/subdivision.h"
 #include "holoflow/kernels/topology.h"
 #include "support/test_support.h"
