@@ -125,7 +125,7 @@ struct Stages {
     void homology_and_factorise(ModelState& s) const {
         for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::homology_and_factorise(part.conformal, cache); });
     }
-    //! Sizes the harmonic forms; returns the number of blocks (of all parts).
+    //! Hands each part's closed forms to its harmonic forms; returns the number of blocks (of all parts).
     int begin_solves(ModelState& s) const {
         s.first_block.assign(1, 0);
         for_each_part(s.parts, [&](engine::SegmentationWork& part) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -113,15 +114,18 @@ namespace {
 
 enum FaceState : char { kGood, kFlipped, kDegenerate };
 
-// Per face in parallel (each face writes its own slots): the distortion (infinity where
-// degenerate) and, when `state` is given, whether the image is flipped or degenerate.
-std::vector<double> measure_faces(const MeshView& mesh, std::span<const double> edge_length, const Eigen::VectorXcd& tau,
-                                  std::vector<char>* state) {
+struct FaceMeasures {
+    std::vector<double> distortion;  // infinity where degenerate
+    std::vector<char> state;         // FaceState
+};
+
+// Per face in parallel (each face writes its own slots).
+FaceMeasures measure_faces(const MeshView& mesh, std::span<const double> edge_length, const Eigen::VectorXcd& tau) {
     HOLOFLOW_REQUIRE(static_cast<Index>(edge_length.size()) == mesh.n_edges() &&
                          tau.size() == mesh.n_edges(),
                      "lengths and form must have one value per edge");
-    std::vector<double> distortion(mesh.n_faces(), std::numeric_limits<double>::infinity());
-    if (state) state->assign(mesh.n_faces(), kGood);
+    FaceMeasures m{std::vector<double>(mesh.n_faces(), std::numeric_limits<double>::infinity()),
+                   std::vector<char>(mesh.n_faces(), kGood)};
     par::for_each_range(static_cast<std::size_t>(mesh.n_faces()), kParallelFaces, [&](std::size_t begin, std::size_t end) {
         for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
             const Index h0 = 3 * f, h1 = 3 * f + 1, h2 = 3 * f + 2;
@@ -129,28 +133,29 @@ std::vector<double> measure_faces(const MeshView& mesh, std::span<const double> 
             const double d = triangle_distortion(edge_length[mesh.halfedge_edge[h0]], edge_length[mesh.halfedge_edge[h1]],
                                                  edge_length[mesh.halfedge_edge[h2]], t0, t2);
             if (!std::isfinite(d)) {
-                if (state) (*state)[f] = kDegenerate;
+                m.state[f] = kDegenerate;
                 continue;
             }
-            if (state && cross(t0, t2) < 0) (*state)[f] = kFlipped;
-            distortion[f] = d;
+            if (cross(t0, t2) < 0) m.state[f] = kFlipped;
+            m.distortion[f] = d;
         }
     });
-    return distortion;
+    return m;
 }
 
 }  // namespace
 
 std::vector<double> face_distortion(const MeshView& mesh, std::span<const double> edge_length,
                                     const Eigen::VectorXcd& tau) {
-    return measure_faces(mesh, edge_length, tau, nullptr);
+    return measure_faces(mesh, edge_length, tau).distortion;
 }
 
 MapQuality map_quality(const MeshView& mesh, std::span<const double> edge_length,
                        const Eigen::VectorXcd& tau) {
     MapQuality q;
-    std::vector<char> state;
-    q.face_distortion = measure_faces(mesh, edge_length, tau, &state);
+    FaceMeasures measured = measure_faces(mesh, edge_length, tau);
+    q.face_distortion = std::move(measured.distortion);
+    const std::vector<char>& state = measured.state;
     std::vector<double> finite;
     finite.reserve(mesh.n_faces());
     for (Index f = 0; f < mesh.n_faces(); ++f) {

@@ -11,7 +11,6 @@
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/double_cover.h"
 #include "holoflow/kernels/homology.h"
-#include "holoflow/kernels/parallel.h"
 
 namespace holoflow::kernels {
 
@@ -175,34 +174,11 @@ Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis&
     };
     const Eigen::Index n = homology.closed_forms.cols();
     HOLOFLOW_REQUIRE(homology.loops.size() == static_cast<std::size_t>(n), "one homology loop per closed form");
-    // The mirrored loops as signed edges (loop j: [start[j], start[j + 1])), then each form's
-    // periods over all of them from its own column: a form's column is read in place, where a
-    // loop at a time would read the whole #E x 2g matrix row by row. Each sum keeps its loop
-    // order, so the bits are those of integrate_along.
-    std::vector<std::size_t> start(static_cast<std::size_t>(n) + 1, 0);
-    std::vector<Index> edge;
-    std::vector<double> sign;
-    for (Eigen::Index j = 0; j < n; ++j) {
-        for (const Index h : homology.loops[static_cast<std::size_t>(j)]) {
-            const Index image = mirror(h);
-            HOLOFLOW_REQUIRE(image >= 0, "involution_matrix: the cover has a boundary");
-            edge.push_back(mesh.halfedge_edge[image]);
-            sign.push_back(mesh.edge_sign(image));
-        }
-        start[static_cast<std::size_t>(j) + 1] = edge.size();
-    }
-    Eigen::MatrixXi S(n, n);
-    par::for_each_index(static_cast<std::size_t>(n), mesh.n_edges() >= par::kParallelColumnRows, [&](std::size_t c) {
-        const auto i = static_cast<Eigen::Index>(c);
-        const double* eta = homology.closed_forms.col(i).data();
-        for (Eigen::Index j = 0; j < n; ++j) {
-            double period = 0;
-            for (std::size_t k = start[static_cast<std::size_t>(j)]; k < start[static_cast<std::size_t>(j) + 1]; ++k)
-                period += sign[k] * eta[edge[k]];
-            S(i, j) = static_cast<int>(std::lround(period));
-        }
-    });
-    return S;
+    std::vector<std::vector<Index>> images(homology.loops.size());
+    for (std::size_t j = 0; j < images.size(); ++j)
+        for (const Index h : homology.loops[j]) images[j].push_back(mirror(h));
+    const Eigen::MatrixXd periods = integrate_along_paths(mesh, homology.closed_forms, images);
+    return periods.array().round().cast<int>();
 }
 
 Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, const Eigen::VectorXd& x) {

@@ -264,16 +264,41 @@ HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions
     return basis;
 }
 
+Eigen::MatrixXd integrate_along_paths(const MeshView& mesh, const Eigen::MatrixXd& forms,
+                                      std::span<const std::vector<Index>> paths) {
+    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(), "forms must have one row per edge");
+    // The paths as signed edges (path j: [start[j], start[j + 1])), then each form's integrals
+    // from its own column: a column is read in place, where a path at a time would read the
+    // #E x k matrix row by row. Each sum runs in path order.
+    std::vector<std::size_t> start(paths.size() + 1, 0);
+    std::vector<Index> edge;
+    std::vector<double> sign;
+    for (std::size_t j = 0; j < paths.size(); ++j) {
+        for (const Index h : paths[j]) {
+            HOLOFLOW_REQUIRE(h >= 0 && h < mesh.n_halfedges(), "halfedge " + std::to_string(h) + " out of range");
+            edge.push_back(mesh.halfedge_edge[h]);
+            sign.push_back(mesh.edge_sign(h));
+        }
+        start[j + 1] = edge.size();
+    }
+    Eigen::MatrixXd total(forms.cols(), static_cast<Eigen::Index>(paths.size()));
+    const bool parallel = edge.size() * static_cast<std::size_t>(forms.cols()) >= par::kParallelColumnRows;
+    par::for_each_index(static_cast<std::size_t>(forms.cols()), parallel, [&](std::size_t c) {
+        const auto i = static_cast<Eigen::Index>(c);
+        const double* form = forms.col(i).data();
+        for (std::size_t j = 0; j < paths.size(); ++j) {
+            double sum = 0;
+            for (std::size_t k = start[j]; k < start[j + 1]; ++k) sum += sign[k] * form[edge[k]];
+            total(i, static_cast<Eigen::Index>(j)) = sum;
+        }
+    });
+    return total;
+}
+
 Eigen::VectorXd integrate_along(const MeshView& mesh, const Eigen::MatrixXd& forms,
                                 std::span<const Index> loop) {
-    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(), "forms must have one row per edge");
-    Eigen::VectorXd total = Eigen::VectorXd::Zero(forms.cols());
-    for (const Index h : loop) {
-        HOLOFLOW_REQUIRE(h >= 0 && h < mesh.n_halfedges(),
-                         "halfedge " + std::to_string(h) + " out of range");
-        total += mesh.edge_sign(h) * forms.row(mesh.halfedge_edge[h]).transpose();
-    }
-    return total;
+    const std::vector<Index> path(loop.begin(), loop.end());
+    return integrate_along_paths(mesh, forms, std::span(&path, 1)).col(0);
 }
 
 Eigen::MatrixXd wedge_matrix(const MeshView& mesh, const Eigen::MatrixXd& forms) {

@@ -122,6 +122,12 @@ void check_homology_basis(const MeshView& mesh, const HomologyBasis& b, int genu
         const Eigen::VectorXd periods = integrate_along(mesh, b.closed_forms, loop);
         for (Index i = 0; i < n_g; ++i) EXPECT_EQ(periods(i), i == j ? 1.0 : 0.0);
     }
+    // All loops at once: the same sums, on forms that are not integers too.
+    const Eigen::MatrixXd noisy = b.closed_forms + 1e-3 * Eigen::MatrixXd::Random(b.closed_forms.rows(), n_g);
+    const Eigen::MatrixXd all = integrate_along_paths(mesh, noisy, b.loops);
+    ASSERT_EQ(all.rows(), n_g);
+    ASSERT_EQ(all.cols(), n_g);
+    for (Index j = 0; j < n_g; ++j) EXPECT_EQ(all.col(j), integrate_along(mesh, noisy, b.loops[j]));
 
     // Wedge matrix of the dual forms: integral, skew, unimodular; the canonical basis puts it in
     // standard form, also when recomputed from the transformed forms.

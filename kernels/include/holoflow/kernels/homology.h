@@ -50,6 +50,12 @@ HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions
 Eigen::VectorXd integrate_along(const MeshView& mesh, const Eigen::MatrixXd& forms,
                                 std::span<const Index> loop);
 
+//! The same over several paths at once: column j of the k x #paths result is integrate_along
+//! over paths[j] (the same bits), each form's column read once (forms in parallel).
+//! \throw InvalidInput as integrate_along.
+Eigen::MatrixXd integrate_along_paths(const MeshView& mesh, const Eigen::MatrixXd& forms,
+                                      std::span<const std::vector<Index>> paths);
+
 //! A_ij = integral over the surface of forms_i ^ forms_j (closed forms): per face (a d - b c)/2
 //! with a = f_i(v0->v1), b = f_i(v0->v2), c = f_j(v0->v1), d = f_j(v0->v2), assembled as the
 //! sparse product Omega^T S Omega (S skew, two entries per face) and skew-symmetrised.
