@@ -1,5 +1,10 @@
 #include "holoflow/kernels/mesh_view.h"
 
+#include <algorithm>
+#include <array>
+#include <string>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "holoflow/kernels/shapes.h"
@@ -22,6 +27,53 @@ TEST(MeshView, EdgesRunAlongTheirSmallerHalfedge) {
         }
         for (Index h = 0; h < m.n_halfedges(); ++h)
             EXPECT_EQ(m.edge_sign(h), m.edge_halfedge[m.halfedge_edge[h]] == h ? 1 : -1) << "halfedge " << h;
+    }
+}
+
+// Octahedra (and one triangle) glued at single vertices, ids scattered so that the pinched
+// vertices fall in different blocks of make_mesh_view's side-by-side fan walks: the error names
+// the smallest pinched vertex, as walking one vertex after the other would. Each kind (two
+// closed fans, a closed fan beside a boundary one) is the smallest in one of the cases.
+TEST(MeshView, EveryPinchedVertexIsFoundAndTheSmallestNamed) {
+    const auto octahedron = [](std::array<Index, 6> v, std::vector<std::array<Index, 3>>& F) {
+        for (int i = 0; i < 4; ++i) {
+            const Index r = v[2 + i], s = v[2 + (i + 1) % 4];
+            F.push_back({v[0], r, s});
+            F.push_back({v[1], s, r});
+        }
+    };
+    // Vertex 0 joins octahedra A and B, vertex 1 octahedra C and D, vertex 2 octahedron E and a
+    // triangle; the other 29 vertices are fine.
+    std::vector<std::array<Index, 3>> faces;
+    octahedron({0, 3, 4, 5, 6, 7}, faces);
+    octahedron({0, 8, 9, 10, 11, 12}, faces);
+    octahedron({1, 13, 14, 15, 16, 17}, faces);
+    octahedron({1, 18, 19, 20, 21, 22}, faces);
+    octahedron({2, 23, 24, 25, 26, 27}, faces);
+    faces.push_back({2, 28, 29});
+    octahedron({30, 31, 32, 33, 34, 35}, faces);
+    const Index n = 36;
+    for (const std::array<Index, 3> pinched : {std::array<Index, 3>{33, 17, 21}, {3, 35, 34}, {20, 19, 2}}) {
+        std::vector<Index> id(n);  // pinched vertices 0, 1, 2 -> pinched[0..2], the others in turn
+        for (Index v = 0, next = 0; v < n; ++v) {
+            if (v < 3) {
+                id[v] = pinched[v];
+                continue;
+            }
+            while (std::find(pinched.begin(), pinched.end(), next) != pinched.end()) ++next;
+            id[v] = next++;
+        }
+        PointMatrix V = PointMatrix::Random(n, 3);
+        TriangleMatrix F(static_cast<Index>(faces.size()), 3);
+        for (std::size_t f = 0; f < faces.size(); ++f)
+            for (int k = 0; k < 3; ++k) F(static_cast<Index>(f), k) = id[faces[f][k]];
+        try {
+            make_mesh_view(V, F);
+            ADD_FAILURE() << "pinched vertices accepted";
+        } catch (const ConnectivityError& e) {
+            EXPECT_EQ(e.kind, ConnectivityError::Kind::NonManifoldVertex);
+            EXPECT_EQ(e.element, *std::min_element(pinched.begin(), pinched.end())) << e.what();
+        }
     }
 }
 
