@@ -504,7 +504,8 @@ const ScatteredCut& scattered_cut(int level) {
             twin[3 * f + k] = moved(m.twin[3 * face_at[f] + k]);
         }
     auto out = std::make_unique<ScatteredCut>();
-    out->mesh = std::make_shared<const MeshView>(holoflow::make_mesh_view(std::move(V), std::move(F), std::move(twin)));
+    out->mesh =
+        std::make_shared<const MeshView>(holoflow::make_mesh_view(std::move(V), std::move(F), std::move(twin)));
     // The form and border flags by the new edges, signed by the new edges' orientation.
     out->tau.resize(out->mesh->n_edges());
     out->border.resize(out->mesh->n_edges());

@@ -100,7 +100,8 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
     // The twins of a badly ordered mesh lie far apart: fetched kTwinsAhead halfedges early.
     constexpr Index kTwinsAhead = 32;
     for (Index h = 0; h < n_h; ++h) {
-        if (const Index ahead = h + kTwinsAhead < n_h ? m.twin[h + kTwinsAhead] : kNoHalfedge; ahead >= 0 && ahead < n_h) {
+        const Index ahead = h + kTwinsAhead < n_h ? m.twin[h + kTwinsAhead] : kNoHalfedge;
+        if (ahead >= 0 && ahead < n_h) {
             __builtin_prefetch(&m.twin[ahead]);
             __builtin_prefetch(&m.F(ahead / 3, 0));
         }
