@@ -3,12 +3,17 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/parallel.h"
 
 namespace holoflow {
 namespace {
+
+constexpr Index kParallelHalfedges = 60000;  // below this, one thread: the split costs more
+constexpr Index kBlock = 16384;              // halfedges or vertices per block of make_mesh_view
 
 std::string edge_name(Index a, Index b) {
     return "edge (" + std::to_string(a) + ", " + std::to_string(b) + ")";
@@ -97,38 +102,71 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
     m.twin = std::move(twin);
     const Index n_h = m.n_halfedges();
     HOLOFLOW_REQUIRE(static_cast<Index>(m.twin.size()) == n_h, "twin array has the wrong size");
+    // The passes over halfedges and vertices run in blocks, in parallel on large meshes; each
+    // block writes its own slots, and a failed check throws for the smallest offender, as a
+    // serial pass would.
+    const bool parallel = n_h >= kParallelHalfedges;
+    const auto for_each_block = [&](Index n, const std::function<void(Index, Index)>& fn) {
+        const Index blocks = (n + kBlock - 1) / kBlock;
+        par::for_each_index(static_cast<std::size_t>(blocks), parallel, [&](std::size_t b) {
+            const Index begin = static_cast<Index>(b) * kBlock;
+            fn(begin, std::min(n, begin + kBlock));
+        });
+    };
     // The twins of a badly ordered mesh lie far apart: fetched kTwinsAhead halfedges early.
     constexpr Index kTwinsAhead = 32;
-    for (Index h = 0; h < n_h; ++h) {
-        const Index ahead = h + kTwinsAhead < n_h ? m.twin[h + kTwinsAhead] : kNoHalfedge;
-        if (ahead >= 0 && ahead < n_h) {
-            __builtin_prefetch(&m.twin[ahead]);
-            __builtin_prefetch(&m.F(ahead / 3, 0));
-        }
+    const auto twin_fits = [&](Index h) {
         const Index t = m.twin[h];
-        if (t == kNoHalfedge) continue;
+        return t == kNoHalfedge ||
+               (t >= 0 && t < n_h && t != h && m.twin[t] == h && m.tail(t) == m.head(h) && m.head(t) == m.tail(h));
+    };
+    std::vector<Index> misfit((n_h + kBlock - 1) / kBlock, n_h);  // per block, its first bad twin
+    for_each_block(n_h, [&](Index begin, Index end) {
+        for (Index h = begin; h < end; ++h) {
+            const Index ahead = h + kTwinsAhead < n_h ? m.twin[h + kTwinsAhead] : kNoHalfedge;
+            if (ahead >= 0 && ahead < n_h) {
+                __builtin_prefetch(&m.twin[ahead]);
+                __builtin_prefetch(&m.F(ahead / 3, 0));
+            }
+            if (!twin_fits(h)) {
+                misfit[begin / kBlock] = h;
+                return;
+            }
+        }
+    });
+    if (const Index h = *std::min_element(misfit.begin(), misfit.end()); h < n_h) {
+        const Index t = m.twin[h];
         HOLOFLOW_REQUIRE(t >= 0 && t < n_h && t != h && m.twin[t] == h,
                          "twin is not an involution at halfedge " + std::to_string(h));
         HOLOFLOW_REQUIRE(m.tail(t) == m.head(h) && m.head(t) == m.tail(h),
                          "twin halfedges are not opposite at halfedge " + std::to_string(h));
     }
 
-    // Edges: one per halfedge pair, represented by the smaller halfedge index.
+    // Edges: one per halfedge pair, represented by the smaller halfedge index, numbered in
+    // halfedge order (each block counts its edges, then numbers them from its offset).
+    const auto owns_edge = [&](Index h) { return m.twin[h] == kNoHalfedge || m.twin[h] > h; };
+    std::vector<Index> block_edges((n_h + kBlock - 1) / kBlock + 1, 0);
+    for_each_block(n_h, [&](Index begin, Index end) {
+        Index count = 0;
+        for (Index h = begin; h < end; ++h) count += owns_edge(h);
+        block_edges[begin / kBlock + 1] = count;
+    });
+    for (std::size_t b = 1; b < block_edges.size(); ++b) block_edges[b] += block_edges[b - 1];
     m.halfedge_edge.assign(n_h, -1);
-    m.edge_halfedge.reserve(static_cast<std::size_t>(n_h) / 2 + 1);
-    for (Index h = 0; h < n_h; ++h) {
-        const Index t = m.twin[h];
-        if (t != kNoHalfedge && t < h) continue;
-        const Index e = static_cast<Index>(m.edge_halfedge.size());
-        m.edge_halfedge.push_back(h);
-        m.halfedge_edge[h] = e;
-        if (t != kNoHalfedge) m.halfedge_edge[t] = e;
-    }
+    m.edge_halfedge.resize(static_cast<std::size_t>(block_edges.back()));
     m.E.resize(static_cast<Eigen::Index>(m.edge_halfedge.size()), 2);
-    for (Index e = 0; e < m.n_edges(); ++e) {
-        m.E(e, 0) = m.tail(m.edge_halfedge[e]);
-        m.E(e, 1) = m.head(m.edge_halfedge[e]);
-    }
+    for_each_block(n_h, [&](Index begin, Index end) {
+        Index e = block_edges[begin / kBlock];
+        for (Index h = begin; h < end; ++h) {
+            if (!owns_edge(h)) continue;
+            m.edge_halfedge[e] = h;
+            m.halfedge_edge[h] = e;
+            if (m.twin[h] != kNoHalfedge) m.halfedge_edge[m.twin[h]] = e;
+            m.E(e, 0) = m.tail(h);
+            m.E(e, 1) = m.head(h);
+            ++e;
+        }
+    });
 
     // Outgoing halfedge per vertex, preferring the boundary one so that a counter-clockwise walk
     // from it covers the whole fan.
@@ -151,28 +189,30 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
     // miss per step where the faces around a vertex lie far apart in memory, as decimated meshes
     // store them. kFanWalks vertices are walked side by side so that their misses overlap.
     constexpr Index kFanWalks = 16;
-    for (Index v0 = 0; v0 < n_v; v0 += kFanWalks) {
-        const Index walks = std::min(kFanWalks, n_v - v0);
-        std::array<Index, kFanWalks> h{}, visited{};
-        for (Index w = 0; w < walks; ++w) h[w] = m.vertex_halfedge[v0 + w];
-        for (bool walking = true; walking;) {
-            walking = false;
-            for (Index w = 0; w < walks; ++w) {
-                if (h[w] == kNoHalfedge) continue;
-                const Index v = v0 + w, r = m.rotate(h[w]);
-                ++visited[w];
-                h[w] = r == m.vertex_halfedge[v] || visited[w] > outgoing[v] ? kNoHalfedge : r;
-                walking = walking || h[w] != kNoHalfedge;
+    std::vector<Index> visited(n_v, 0);  // halfedges of each vertex's fan
+    for_each_block(n_v, [&](Index begin, Index end) {
+        for (Index v0 = begin; v0 < end; v0 += kFanWalks) {
+            const Index walks = std::min(kFanWalks, end - v0);
+            std::array<Index, kFanWalks> h{}, steps{};
+            for (Index w = 0; w < walks; ++w) h[w] = m.vertex_halfedge[v0 + w];
+            for (bool walking = true; walking;) {
+                walking = false;
+                for (Index w = 0; w < walks; ++w) {
+                    if (h[w] == kNoHalfedge) continue;
+                    const Index v = v0 + w, r = m.rotate(h[w]);
+                    ++steps[w];
+                    h[w] = r == m.vertex_halfedge[v] || steps[w] > outgoing[v] ? kNoHalfedge : r;
+                    walking = walking || h[w] != kNoHalfedge;
+                }
             }
+            std::copy_n(steps.begin(), walks, visited.begin() + v0);
         }
-        for (Index w = 0; w < walks; ++w) {
-            const Index v = v0 + w;
-            HOLOFLOW_REQUIRE(m.vertex_halfedge[v] != kNoHalfedge, "vertex " + std::to_string(v) + " is in no face");
-            if (visited[w] != outgoing[v])
-                throw ConnectivityError(ConnectivityError::Kind::NonManifoldVertex, v, -1,
-                                        "non-manifold vertex " + std::to_string(v) +
-                                            ": its faces form more than one fan");
-        }
+    });
+    for (Index v = 0; v < n_v; ++v) {
+        HOLOFLOW_REQUIRE(m.vertex_halfedge[v] != kNoHalfedge, "vertex " + std::to_string(v) + " is in no face");
+        if (visited[v] != outgoing[v])
+            throw ConnectivityError(ConnectivityError::Kind::NonManifoldVertex, v, -1,
+                                    "non-manifold vertex " + std::to_string(v) + ": its faces form more than one fan");
     }
     return m;
 }

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <array>
+#include <numeric>
+#include <random>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include "holoflow/kernels/shapes.h"
 
@@ -27,6 +30,89 @@ TEST(MeshView, EdgesRunAlongTheirSmallerHalfedge) {
         }
         for (Index h = 0; h < m.n_halfedges(); ++h)
             EXPECT_EQ(m.edge_sign(h), m.edge_halfedge[m.halfedge_edge[h]] == h ? 1 : -1) << "halfedge " << h;
+    }
+}
+
+// A mesh of over 20k faces (make_mesh_view's passes run in parallel blocks there) with its
+// faces and vertices shuffled, as a badly ordered file stores them.
+MeshView shuffled(const MeshView& m, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::vector<Index> face(m.n_faces()), vertex(m.n_vertices());
+    std::iota(face.begin(), face.end(), 0);
+    std::iota(vertex.begin(), vertex.end(), 0);
+    std::shuffle(face.begin(), face.end(), rng);
+    std::shuffle(vertex.begin(), vertex.end(), rng);
+    PointMatrix V(m.n_vertices(), 3);
+    for (Index v = 0; v < m.n_vertices(); ++v) V.row(vertex[v]) = m.V.row(v);
+    TriangleMatrix F(m.n_faces(), 3);
+    for (Index f = 0; f < m.n_faces(); ++f)
+        for (int k = 0; k < 3; ++k) F(face[f], k) = vertex[m.F(f, k)];
+    return make_mesh_view(std::move(V), std::move(F));
+}
+
+// Edges are numbered in halfedge order, each vertex starts at its boundary halfedge if it has
+// one, and one thread builds the same arrays as several.
+TEST(MeshView, LargeMeshesAreBuiltInHalfedgeOrderWithAnyThreadCount) {
+    for (const MeshView& m : {shuffled(shapes::torus(1.0, 0.4, 160, 150), 7), shuffled(shapes::flat_grid(170, 150), 8)}) {
+        ASSERT_GT(m.n_faces(), 40000);
+        EXPECT_TRUE(std::is_sorted(m.edge_halfedge.begin(), m.edge_halfedge.end()));
+        Index boundary = 0;
+        for (Index h = 0; h < m.n_halfedges(); ++h) {
+            const Index t = m.twin[h], e = m.halfedge_edge[h];
+            EXPECT_EQ(m.edge_halfedge[e], t == kNoHalfedge ? h : std::min(h, t)) << "halfedge " << h;
+            boundary += t == kNoHalfedge;
+        }
+        EXPECT_EQ(m.n_edges(), (m.n_halfedges() + boundary) / 2);
+        for (Index e = 0; e < m.n_edges(); ++e) {
+            EXPECT_EQ(m.E(e, 0), m.tail(m.edge_halfedge[e]));
+            EXPECT_EQ(m.E(e, 1), m.head(m.edge_halfedge[e]));
+        }
+        std::vector<char> on_boundary(m.n_vertices(), 0);
+        for (Index h = 0; h < m.n_halfedges(); ++h)
+            if (m.twin[h] == kNoHalfedge) on_boundary[m.tail(h)] = 1;
+        for (Index v = 0; v < m.n_vertices(); ++v) {
+            EXPECT_EQ(m.tail(m.vertex_halfedge[v]), v);
+            EXPECT_EQ(m.is_boundary_halfedge(m.vertex_halfedge[v]), static_cast<bool>(on_boundary[v])) << "vertex " << v;
+        }
+        tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+        const MeshView serial = make_mesh_view(m.V, m.F, m.twin);
+        EXPECT_EQ(serial.halfedge_edge, m.halfedge_edge);
+        EXPECT_EQ(serial.edge_halfedge, m.edge_halfedge);
+        EXPECT_EQ(serial.E, m.E);
+        EXPECT_EQ(serial.vertex_halfedge, m.vertex_halfedge);
+    }
+}
+
+// On a large mesh, the smallest offender is named whichever block finds it: the first halfedge
+// whose twin is wrong, the smallest pinched vertex.
+TEST(MeshView, LargeMeshesNameTheSmallestOffender) {
+    const MeshView m = shuffled(shapes::torus(1.0, 0.4, 160, 150), 9);
+    ASSERT_GT(m.n_halfedges(), 100000);
+    std::vector<Index> twin = m.twin;
+    const Index late = 95000, early = 30001;  // unpaired: their old twins now point at them alone
+    const Index expected = std::min(m.twin[late], m.twin[early]);
+    twin[late] = twin[early] = kNoHalfedge;
+    try {
+        make_mesh_view(m.V, m.F, twin);
+        ADD_FAILURE() << "a broken pairing accepted";
+    } catch (const InvalidInput& e) {
+        EXPECT_TRUE(std::string(e.what()).ends_with("at halfedge " + std::to_string(expected))) << e.what();
+    }
+    // Two vertices far apart in the numbering each get a second fan (a triangle on two new
+    // vertices); the smaller one is named.
+    for (const std::array<Index, 2> pinched : {std::array<Index, 2>{20000, 3000}, {100, 23000}}) {
+        PointMatrix V(m.n_vertices() + 4, 3);
+        V << m.V, PointMatrix::Random(4, 3);
+        TriangleMatrix F(m.n_faces() + 2, 3);
+        const Index n = m.n_vertices();
+        F << m.F, pinched[0], n, n + 1, pinched[1], n + 2, n + 3;
+        try {
+            make_mesh_view(V, F);
+            ADD_FAILURE() << "pinched vertices accepted";
+        } catch (const ConnectivityError& e) {
+            EXPECT_EQ(e.kind, ConnectivityError::Kind::NonManifoldVertex);
+            EXPECT_EQ(e.element, std::min(pinched[0], pinched[1])) << e.what();
+        }
     }
 }
 
