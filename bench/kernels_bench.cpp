@@ -454,6 +454,23 @@ void BM_kernel_compute_patches(benchmark::State& state) {
     });
 }
 
+// The layout rounds' scan of the patches for concave corners and branch points; on the
+// pipeline's final patches it finds none, so only the scan runs.
+void BM_kernel_corner_transversals(benchmark::State& state) {
+    with_inputs(state, segmentation_inputs, [&](const SegmentationInputs& in) {
+        const kernels::Patches patches = kernels::compute_patches(in.cut.mesh, in.cut.tau, in.border);
+        const auto scan = [&] {
+            return kernels::corner_transversals(in.regular.mesh, in.regular.tau, in.zero_vertices, in.cut_by, in.cut,
+                                                in.border, patches);
+        };
+        if (!scan().empty()) return fail(state, "the pipeline's final patches still have corners to split");
+        for (auto _ : state) {
+            const std::vector<kernels::Trajectory> t = scan();
+            benchmark::DoNotOptimize(t.data());
+        }
+    });
+}
+
 void BM_kernel_make_mesh_view(benchmark::State& state) {
     with_inputs(state, segmentation_inputs, [&](const SegmentationInputs& in) {
         const MeshView& m = in.cut.mesh;
@@ -604,6 +621,7 @@ int main(int argc, char** argv) {
     register_kernel("BM_kernel_trace_trajectories", BM_kernel_trace_trajectories);
     register_kernel("BM_kernel_cut_along_trajectories", BM_kernel_cut_along_trajectories);
     register_kernel("BM_kernel_compute_patches", BM_kernel_compute_patches);
+    register_kernel("BM_kernel_corner_transversals", BM_kernel_corner_transversals);
     register_kernel("BM_kernel_make_mesh_view", BM_kernel_make_mesh_view);
     register_kernel("BM_kernel_make_mesh_view_scattered", BM_kernel_make_mesh_view_scattered);
     register_kernel("BM_kernel_compute_patches_scattered", BM_kernel_compute_patches_scattered);

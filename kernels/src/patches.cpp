@@ -17,6 +17,7 @@
 #include "holoflow/kernels/cotan_laplacian.h"
 #include "holoflow/kernels/errors.h"
 #include "holoflow/kernels/flow_cut.h"
+#include "holoflow/kernels/parallel.h"
 #include "holoflow/kernels/union_find.h"
 #include "holoflow/kernels/zeros.h"
 
@@ -33,6 +34,7 @@ constexpr double kBranchTurn = 3 * std::numbers::pi;  // uv angle around an inne
 constexpr double kCornerGap = 1e-6;  // a concave corner at least this far off its rectangle's sides (over its size)
 constexpr double kAxisTol = 1e-6;    // directions within this (radians, or relative) count as along
 constexpr Index kOpeningCandidates = 64;  // start vertices tried per cylinder (each one short trace)
+constexpr Index kParallelPatchFaces = 20000;  // below this, threads cost more than they save
 constexpr double kIsoLineTol = 1e-9;      // a repaired cylinder: loop spread across, period mismatch, over the period
 
 bool flipped_uv(Complex a, Complex b, Complex c) {
@@ -665,43 +667,52 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     Patches p;
     p.face_patch.assign(nf, -1);
     p.corner_uv.assign(3 * static_cast<std::size_t>(nf), Complex(0));
-    // Per halfedge, in passes in memory order: the form along it, and its twin where the flood
-    // crosses (-1 at borders). The flood then reads each face it reaches in one place.
-    const std::vector<Complex> along = forms_along(mesh, tau);
-    std::vector<Index> across(mesh.n_halfedges());
-    for (Index h = 0; h < mesh.n_halfedges(); ++h) across[h] = on_border(mesh, border, h) ? kNoHalfedge : mesh.twin[h];
-    std::vector<Index> queue;
-    queue.reserve(nf);
-    for (Index seed = 0; seed < nf; ++seed) {
-        if (p.face_patch[seed] >= 0) continue;
-        const Index id = static_cast<Index>(p.info.size());
-        p.info.emplace_back();
-        p.face_patch[seed] = id;
-        p.corner_uv[3 * seed] = 0;
-        p.corner_uv[3 * seed + 1] = along[3 * seed];
-        p.corner_uv[3 * seed + 2] = -along[3 * seed + 2];
-        queue.assign(1, seed);
-        for (std::size_t q = 0; q < queue.size(); ++q) {
-            const Index f = queue[q];
-            for (int k = 0; k < 3; ++k) {
-                const Index t = across[3 * f + k];
-                if (t == kNoHalfedge) continue;
-                const Index g = MeshView::face(t);
-                if (p.face_patch[g] >= 0) continue;
-                p.face_patch[g] = id;
-                // t runs head(h) -> tail(h): its tail corner gets h's head uv.
-                const Index kt = t % 3;
-                const Complex base = p.corner_uv[3 * f + (k + 1) % 3];
-                p.corner_uv[3 * g + kt] = base;
-                p.corner_uv[3 * g + (kt + 1) % 3] = base + along[t];
-                p.corner_uv[3 * g + (kt + 2) % 3] = base - along[MeshView::prev(t)];
-                queue.push_back(g);
+    // The flood fill, while other workers measure the faces and walk the border loops (neither
+    // depends on the patches).
+    std::vector<double> face_distortion;
+    std::vector<Index> loop_starts;
+    const auto flood_fill = [&] {
+        // Per halfedge, in passes in memory order: the form along it, and its twin where the
+        // flood crosses (-1 at borders). The flood then reads each face it reaches in one place.
+        const std::vector<Complex> along = forms_along(mesh, tau);
+        std::vector<Index> across(mesh.n_halfedges());
+        for (Index h = 0; h < mesh.n_halfedges(); ++h)
+            across[h] = on_border(mesh, border, h) ? kNoHalfedge : mesh.twin[h];
+        std::vector<Index> queue;
+        queue.reserve(nf);
+        for (Index seed = 0; seed < nf; ++seed) {
+            if (p.face_patch[seed] >= 0) continue;
+            const Index id = static_cast<Index>(p.info.size());
+            p.info.emplace_back();
+            p.face_patch[seed] = id;
+            p.corner_uv[3 * seed] = 0;
+            p.corner_uv[3 * seed + 1] = along[3 * seed];
+            p.corner_uv[3 * seed + 2] = -along[3 * seed + 2];
+            queue.assign(1, seed);
+            for (std::size_t q = 0; q < queue.size(); ++q) {
+                const Index f = queue[q];
+                for (int k = 0; k < 3; ++k) {
+                    const Index t = across[3 * f + k];
+                    if (t == kNoHalfedge) continue;
+                    const Index g = MeshView::face(t);
+                    if (p.face_patch[g] >= 0) continue;
+                    p.face_patch[g] = id;
+                    // t runs head(h) -> tail(h): its tail corner gets h's head uv.
+                    const Index kt = t % 3;
+                    const Complex base = p.corner_uv[3 * f + (k + 1) % 3];
+                    p.corner_uv[3 * g + kt] = base;
+                    p.corner_uv[3 * g + (kt + 1) % 3] = base + along[t];
+                    p.corner_uv[3 * g + (kt + 2) % 3] = base - along[MeshView::prev(t)];
+                    queue.push_back(g);
+                }
             }
         }
-    }
+    };
+    par::run_together(nf >= kParallelPatchFaces,
+                      {flood_fill, [&] { face_distortion = kernels::face_distortion(mesh, edge_lengths(mesh), tau); },
+                       [&] { loop_starts = border_loops(mesh, border).first; }});
 
     const Index np = static_cast<Index>(p.info.size());
-    const std::vector<double> face_distortion = kernels::face_distortion(mesh, edge_lengths(mesh), tau);
     std::vector<Complex> lo(np, Complex(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()));
     std::vector<Complex> hi(np, -lo[0]);
     std::vector<double> distortion_sum(np, 0);
@@ -743,7 +754,7 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
         if (!fan_ends[v]) ++vertices[p.face_patch[MeshView::face(mesh.vertex_halfedge[v])]];
 
     std::vector<int> loops(np, 0);
-    for (Index h0 : border_loops(mesh, border).first) ++loops[p.face_patch[MeshView::face(h0)]];
+    for (Index h0 : loop_starts) ++loops[p.face_patch[MeshView::face(h0)]];
     for (Index id = 0; id < np; ++id) {
         PatchInfo& info = p.info[id];
         const Index edges = interior_halfedges[id] / 2 + border_halfedges[id];
@@ -1059,21 +1070,30 @@ std::vector<Trajectory> corner_transversals(const MeshView& mesh, const Eigen::V
         const PatchInfo& info = patches.info[patches.face_patch[MeshView::face(h)]];
         return info.type == PatchInfo::Type::Disk && info.flipped_uv_triangles == 0;
     };
+    // Each corner's bound first, in parallel; then their sums (adding the 0 of a corner that
+    // does not count changes no sum).
+    std::vector<double> corner_bound(cm.n_halfedges(), 0);
+    par::for_each_range(static_cast<std::size_t>(cm.n_halfedges()), 3 * kParallelPatchFaces,
+                        [&](std::size_t begin, std::size_t end) {
+                            for (Index h = static_cast<Index>(begin); h < static_cast<Index>(end); ++h)
+                                if (inner[cm.tail(h)] && in_disk(h)) {
+                                    const auto [y, x] = corner_sides(h);
+                                    corner_bound[h] = atan2_above(y, x);
+                                }
+                        });
     std::vector<double> bound(cm.n_vertices(), 0);  // no smaller than the exact sum
-    for (Index h = 0; h < cm.n_halfedges(); ++h)
-        if (inner[cm.tail(h)] && in_disk(h)) {
-            const auto [y, x] = corner_sides(h);
-            bound[cm.tail(h)] += atan2_above(y, x);
-        }
-    std::vector<double> turn(cm.n_vertices(), 0);
-    for (Index h = 0; h < cm.n_halfedges(); ++h)
-        if (bound[cm.tail(h)] > kBranchTurn && in_disk(h)) turn[cm.tail(h)] += corner_angle(h);
+    for (Index h = 0; h < cm.n_halfedges(); ++h) bound[cm.tail(h)] += corner_bound[h];
     std::vector<Index> branch(patches.info.size(), -1);
-    for (Index h = 0; h < cm.n_halfedges(); ++h) {
-        const Index v = cm.tail(h), id = patches.face_patch[MeshView::face(h)];
-        if (inner[v] && turn[v] > kBranchTurn && !is_zero[v] && cut.original_vertex[v] >= 0 &&
-            (branch[id] < 0 || turn[v] > turn[branch[id]] + kAxisTol))
-            branch[id] = v;
+    if (std::any_of(bound.begin(), bound.end(), [](double b) { return b > kBranchTurn; })) {
+        std::vector<double> turn(cm.n_vertices(), 0);
+        for (Index h = 0; h < cm.n_halfedges(); ++h)
+            if (bound[cm.tail(h)] > kBranchTurn && in_disk(h)) turn[cm.tail(h)] += corner_angle(h);
+        for (Index h = 0; h < cm.n_halfedges(); ++h) {
+            const Index v = cm.tail(h), id = patches.face_patch[MeshView::face(h)];
+            if (inner[v] && turn[v] > kBranchTurn && !is_zero[v] && cut.original_vertex[v] >= 0 &&
+                (branch[id] < 0 || turn[v] > turn[branch[id]] + kAxisTol))
+                branch[id] = v;
+        }
     }
     std::vector<TransversalStart> starts;
     std::vector<const Candidate*> chosen;  // per start: the corner, or null for a branch point

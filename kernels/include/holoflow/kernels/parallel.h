@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <initializer_list>
 
 namespace holoflow::par {
 
@@ -18,6 +19,10 @@ namespace holoflow::par {
 //! as the columns of a #E x 2g matrix), serially otherwise. Each index writes its own output, so
 //! results do not depend on the thread count.
 void for_each_index(std::size_t n, bool parallel, const std::function<void(std::size_t)>& fn);
+
+//! Runs independent jobs (none writes what another reads), concurrently on oneTBB workers when
+//! `parallel`, else one after the other; results do not depend on the thread count.
+void run_together(bool parallel, std::initializer_list<std::function<void()>> jobs);
 
 //! Column-per-task loops over #E x k form matrices go parallel from this many rows; below it one
 //! task beats the TBB split.
