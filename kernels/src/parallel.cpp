@@ -27,7 +27,7 @@ void for_each_index(std::size_t n, bool parallel, const std::function<void(std::
 }
 
 void run_together(bool parallel, std::initializer_list<std::function<void()>> jobs) {
-    for_each_index(jobs.size(), parallel, [&](std::size_t i) { std::data(jobs)[i](); });
+    for_each_index(jobs.size(), parallel, [&](std::size_t i) { jobs.begin()[i](); });
 }
 
 }  // namespace holoflow::par
