@@ -12,7 +12,7 @@
 namespace holoflow {
 namespace {
 
-constexpr Index kParallelHalfedges = 60000;  // below this, one thread: the split costs more
+constexpr Index kParallelHalfedges = 24000;  // below this, one thread: the split costs more
 constexpr Index kBlock = 16384;              // halfedges or vertices per block of make_mesh_view
 
 std::string edge_name(Index a, Index b) {

@@ -34,7 +34,7 @@ constexpr double kBranchTurn = 3 * std::numbers::pi;  // uv angle around an inne
 constexpr double kCornerGap = 1e-6;  // a concave corner at least this far off its rectangle's sides (over its size)
 constexpr double kAxisTol = 1e-6;    // directions within this (radians, or relative) count as along
 constexpr Index kOpeningCandidates = 64;  // start vertices tried per cylinder (each one short trace)
-constexpr Index kParallelPatchFaces = 20000;  // below this, threads cost more than they save
+constexpr Index kParallelPatchFaces = 8000;  // from here the overlap pays (10k-20k faces: 5-10 % off the stages)
 constexpr double kIsoLineTol = 1e-9;      // a repaired cylinder: loop spread across, period mismatch, over the period
 
 bool flipped_uv(Complex a, Complex b, Complex c) {

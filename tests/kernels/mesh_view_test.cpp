@@ -33,7 +33,7 @@ TEST(MeshView, EdgesRunAlongTheirSmallerHalfedge) {
     }
 }
 
-// A mesh of over 20k faces (make_mesh_view's passes run in parallel blocks there) with its
+// A mesh of over 8k faces (make_mesh_view's passes run in parallel blocks there) with its
 // faces and vertices shuffled, as a badly ordered file stores them.
 MeshView shuffled(const MeshView& m, unsigned seed) {
     std::mt19937 rng(seed);
