@@ -53,7 +53,8 @@ MeshView shuffled(const MeshView& m, unsigned seed) {
 // Edges are numbered in halfedge order, each vertex starts at its boundary halfedge if it has
 // one, and one thread builds the same arrays as several.
 TEST(MeshView, LargeMeshesAreBuiltInHalfedgeOrderWithAnyThreadCount) {
-    for (const MeshView& m : {shuffled(shapes::torus(1.0, 0.4, 160, 150), 7), shuffled(shapes::flat_grid(170, 150), 8)}) {
+    for (const MeshView& m :
+         {shuffled(shapes::torus(1.0, 0.4, 160, 150), 7), shuffled(shapes::flat_grid(170, 150), 8)}) {
         ASSERT_GT(m.n_faces(), 40000);
         EXPECT_TRUE(std::is_sorted(m.edge_halfedge.begin(), m.edge_halfedge.end()));
         Index boundary = 0;
@@ -72,7 +73,8 @@ TEST(MeshView, LargeMeshesAreBuiltInHalfedgeOrderWithAnyThreadCount) {
             if (m.twin[h] == kNoHalfedge) on_boundary[m.tail(h)] = 1;
         for (Index v = 0; v < m.n_vertices(); ++v) {
             EXPECT_EQ(m.tail(m.vertex_halfedge[v]), v);
-            EXPECT_EQ(m.is_boundary_halfedge(m.vertex_halfedge[v]), static_cast<bool>(on_boundary[v])) << "vertex " << v;
+            EXPECT_EQ(m.is_boundary_halfedge(m.vertex_halfedge[v]), static_cast<bool>(on_boundary[v]))
+                << "vertex " << v;
         }
         tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
         const MeshView serial = make_mesh_view(m.V, m.F, m.twin);
