@@ -113,14 +113,18 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
             fn(begin, std::min(n, begin + kBlock));
         });
     };
+    const Index halfedge_blocks = (n_h + kBlock - 1) / kBlock;
+    // Why halfedge h's twin does not fit; null where it does.
+    const auto twin_fault = [&](Index h) -> const char* {
+        const Index t = m.twin[h];
+        if (t == kNoHalfedge) return nullptr;
+        if (!(t >= 0 && t < n_h && t != h && m.twin[t] == h)) return "twin is not an involution at halfedge ";
+        if (!(m.tail(t) == m.head(h) && m.head(t) == m.tail(h))) return "twin halfedges are not opposite at halfedge ";
+        return nullptr;
+    };
     // The twins of a badly ordered mesh lie far apart: fetched kTwinsAhead halfedges early.
     constexpr Index kTwinsAhead = 32;
-    const auto twin_fits = [&](Index h) {
-        const Index t = m.twin[h];
-        return t == kNoHalfedge ||
-               (t >= 0 && t < n_h && t != h && m.twin[t] == h && m.tail(t) == m.head(h) && m.head(t) == m.tail(h));
-    };
-    std::vector<Index> misfit((n_h + kBlock - 1) / kBlock, n_h);  // per block, its first bad twin
+    std::vector<Index> misfit(halfedge_blocks, n_h);  // per block, its first halfedge with a fault
     for_each_block(n_h, [&](Index begin, Index end) {
         for (Index h = begin; h < end; ++h) {
             const Index ahead = h + kTwinsAhead < n_h ? m.twin[h + kTwinsAhead] : kNoHalfedge;
@@ -128,24 +132,19 @@ MeshView make_mesh_view(PointMatrix V, TriangleMatrix F, std::vector<Index> twin
                 __builtin_prefetch(&m.twin[ahead]);
                 __builtin_prefetch(&m.F(ahead / 3, 0));
             }
-            if (!twin_fits(h)) {
+            if (twin_fault(h) != nullptr) {
                 misfit[begin / kBlock] = h;
                 return;
             }
         }
     });
-    if (const Index h = *std::min_element(misfit.begin(), misfit.end()); h < n_h) {
-        const Index t = m.twin[h];
-        HOLOFLOW_REQUIRE(t >= 0 && t < n_h && t != h && m.twin[t] == h,
-                         "twin is not an involution at halfedge " + std::to_string(h));
-        HOLOFLOW_REQUIRE(m.tail(t) == m.head(h) && m.head(t) == m.tail(h),
-                         "twin halfedges are not opposite at halfedge " + std::to_string(h));
-    }
+    const Index first_misfit = *std::min_element(misfit.begin(), misfit.end());
+    HOLOFLOW_REQUIRE(first_misfit == n_h, twin_fault(first_misfit) + std::to_string(first_misfit));
 
     // Edges: one per halfedge pair, represented by the smaller halfedge index, numbered in
     // halfedge order (each block counts its edges, then numbers them from its offset).
     const auto owns_edge = [&](Index h) { return m.twin[h] == kNoHalfedge || m.twin[h] > h; };
-    std::vector<Index> block_edges((n_h + kBlock - 1) / kBlock + 1, 0);
+    std::vector<Index> block_edges(halfedge_blocks + 1, 0);
     for_each_block(n_h, [&](Index begin, Index end) {
         Index count = 0;
         for (Index h = begin; h < end; ++h) count += owns_edge(h);

@@ -845,6 +845,10 @@ std::vector<Trajectory> cylinder_transversals(const MeshView& mesh, const Eigen:
                                               std::span<const Trajectory> trajectories, const CutMesh& cut,
                                               std::span<const char> border, const Patches& patches) {
     require_together(cut, border, patches);
+    // Openings are vertices inside cylinders: none without one (and no border loops to walk).
+    if (std::none_of(patches.info.begin(), patches.info.end(),
+                     [](const PatchInfo& info) { return info.type == PatchInfo::Type::Cylinder; }))
+        return {};
     const MeshView& cm = cut.mesh;
     std::vector<char> eligible(cm.n_vertices(), 0);
     for (Index v = 0; v < cm.n_vertices(); ++v) eligible[v] = cut.original_vertex[v] >= 0;

@@ -98,7 +98,21 @@ TEST(MeshView, LargeMeshesNameTheSmallestOffender) {
         make_mesh_view(m.V, m.F, twin);
         ADD_FAILURE() << "a broken pairing accepted";
     } catch (const InvalidInput& e) {
-        EXPECT_TRUE(std::string(e.what()).ends_with("at halfedge " + std::to_string(expected))) << e.what();
+        EXPECT_TRUE(std::string(e.what()).ends_with("twin is not an involution at halfedge " + std::to_string(expected)))
+            << e.what();
+    }
+    // Two edges far apart swap their twins: still an involution, but pairing halfedges that are
+    // not opposite; all four are at fault.
+    twin = m.twin;
+    const Index a = 90001, b = 20000, ta = m.twin[a], tb = m.twin[b];
+    twin[a] = tb, twin[tb] = a, twin[b] = ta, twin[ta] = b;
+    try {
+        make_mesh_view(m.V, m.F, twin);
+        ADD_FAILURE() << "a pairing of halfedges that are not opposite accepted";
+    } catch (const InvalidInput& e) {
+        EXPECT_TRUE(std::string(e.what()).ends_with("twin halfedges are not opposite at halfedge " +
+                                                    std::to_string(std::min({a, b, ta, tb}))))
+            << e.what();
     }
     // Two vertices far apart in the numbering each get a second fan (a triangle on two new
     // vertices); the smaller one is named.
