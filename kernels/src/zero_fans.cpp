@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numbers>
 
@@ -68,14 +69,15 @@ bool segments_touch(Complex a, Complex b, Complex c, Complex d, double tol) {
 // the ray from z towards +x.
 int winding_number(const std::vector<Complex>& p, Complex z) {
     int w = 0;
-    const std::size_t n = p.size();
-    for (std::size_t i = 0; i < n; ++i) {
-        const Complex a = p[i], b = p[(i + 1) % n];
+    if (p.empty()) return w;
+    Complex a = p.back();  // edges (p[i - 1], p[i]): the same crossings, no modulo
+    for (const Complex& b : p) {
         if (a.imag() <= z.imag()) {
             if (b.imag() > z.imag() && cross(b - a, z - a) > 0) ++w;
         } else if (b.imag() <= z.imag() && cross(b - a, z - a) < 0) {
             --w;
         }
+        a = b;
     }
     return w;
 }
@@ -482,37 +484,35 @@ class Builder {
     // (bench/README, "Hole filling in the fan regions"), so the rounding stays.
     void fill_holes(std::vector<Index>& faces) {
         for (Index f : faces) mark_[f] = 1;
-        std::vector<Index> added, piece, seen;
+        const std::size_t region = faces.size(), rest = static_cast<std::size_t>(mesh_.n_faces()) - region;
+        std::vector<Index> added;
+        flooded_.clear();  // every piece, each flooded_[first, end): its marks are undone at the end
         for (Index f : faces)
             for (int k = 0; k < 3; ++k) {
                 const Index t = mesh_.twin[3 * f + k];
                 if (t == kNoHalfedge || mark_[MeshView::face(t)]) continue;
                 // Flood the outside piece, up to the region's size.
-                piece.assign(1, MeshView::face(t));
-                mark_[piece[0]] = 2;
+                const std::size_t first = flooded_.size();
+                flooded_.push_back(MeshView::face(t));
+                mark_[flooded_[first]] = 2;
                 bool hole = true;
-                for (std::size_t q = 0; q < piece.size() && hole; ++q) {
-                    const Index x = piece[q];
+                for (std::size_t q = first; q < flooded_.size() && hole; ++q) {
+                    const Index x = flooded_[q];
                     // A hole is smaller than the region and than the rest of the surface.
-                    if (owner_[x] >= 0 || piece.size() > faces.size() ||
-                        2 * piece.size() > static_cast<std::size_t>(mesh_.n_faces()) - faces.size())
-                        hole = false;
+                    const std::size_t size = flooded_.size() - first;
+                    if (owner_[x] >= 0 || size > region || 2 * size > rest) hole = false;
                     for (int j = 0; j < 3 && hole; ++j) {
                         const Index u = mesh_.twin[3 * x + j];
                         if (u == kNoHalfedge) hole = false;
-                        else if (!mark_[MeshView::face(u)]) mark_[MeshView::face(u)] = 2, piece.push_back(MeshView::face(u));
+                        else if (!mark_[MeshView::face(u)]) mark_[MeshView::face(u)] = 2, flooded_.push_back(MeshView::face(u));
                     }
                 }
-                if (hole) {
-                    for (Index x : piece) mark_[x] = 1, added.push_back(x);
-                } else {
-                    for (Index x : piece) seen.push_back(x);  // outside: leave marked 2 until done
-                }
+                // Outside pieces stay marked 2 until done.
+                if (hole)
+                    for (std::size_t q = first; q < flooded_.size(); ++q) mark_[flooded_[q]] = 1, added.push_back(flooded_[q]);
             }
-        for (Index x : seen) mark_[x] = 0;
+        for (Index x : flooded_) mark_[x] = 0;
         for (Index f : faces) mark_[f] = 0;
-        for (Index x : added) mark_[x] = 0;
-        const std::size_t region = faces.size();
         faces.insert(faces.end(), added.begin(), added.end());
         normalise(faces, region);
     }
@@ -817,17 +817,22 @@ class Builder {
         // Most candidates fail: cheap tests first (no hypot, no atan2 until a fan or a sector
         // search can still follow).
         if (c.vertex >= 0 && is_chain(c.vertex)) return false;
-        double extent2 = 0;
-        for (const Complex& p : pts) extent2 = std::max(extent2, std::norm(p - c.image));
-        if (!(extent2 > 0)) return false;
-        const double tol = kTouchTol * std::sqrt(extent2);
-        for (const Complex& p : pts)
-            if (std::norm(p - c.image) <= tol * tol) return false;
+        // A candidate that is no fan's centre once the sector searches are spent fails here,
+        // before any full pass over the chain (the tests below return false the same way).
         const auto point = [&](Index i) { return pts[out.open ? i : i % np]; };
-        bool fan = true;
-        for (Index i = 0; i < n && fan; ++i) fan = ccw(c.image, point(i), point(i + 1));
+        bool fan = true;  // point(i + 1) without a division: only a closed chain's last wraps
+        for (Index i = 0; i < n && fan; ++i) fan = ccw(c.image, pts[i], pts[i + 1 < np ? i + 1 : 0]);
         const int search_cap = n > kLongChain ? 2 : kMaxSearches;
         if (!fan && !diagnosis && (n > kMaxSectorChain || searches >= search_cap)) return false;
+        double extent2 = 0, nearest2 = std::numeric_limits<double>::infinity();
+        for (const Complex& p : pts) {
+            const double d2 = std::norm(p - c.image);
+            extent2 = std::max(extent2, d2);
+            nearest2 = std::min(nearest2, d2);
+        }
+        if (!(extent2 > 0)) return false;
+        const double tol = kTouchTol * std::sqrt(extent2);
+        if (nearest2 <= tol * tol) return false;
         // A closed chain must wind order + 1 times around the centre: counted with the signed
         // crossings of a ray first (no atan2), so most candidates fail before the angles below.
         if (!out.open && winding_number(pts, c.image) != order + 1) return false;
@@ -1037,6 +1042,7 @@ class Builder {
     mutable std::vector<Index> candidate_stamp_;
     std::vector<Complex> image_, origin_;
     std::vector<char> cut_;
+    std::vector<Index> flooded_;  // fill_holes' scratch, kept for its capacity
     Index generation_ = 0;
     Index face_cap_ = 0;
     std::vector<std::pair<Index, Group>> undo_;  // groups as they were before the current solve
