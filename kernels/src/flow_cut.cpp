@@ -16,6 +16,8 @@ namespace {
 
 using Complex = std::complex<double>;
 constexpr Index kParallelFaces = 2000;
+// The assembly's loops are a few stores per face: below this many, one thread is faster.
+constexpr std::size_t kParallelAssemblyFaces = 8192;
 
 // A segment of a trajectory inside one face, by point ids.
 struct FaceSegment {
@@ -511,9 +513,11 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         for (int k = 0; k < 3; ++k) x += b[k] * mesh.V.row(mesh.F(f, k));
         V.row(first_inner + static_cast<Index>(q)) = x;
     }
-    Index n_tri = 0;
+    // Face f's triangles are rows first_triangle[f] on: every face writes its own rows.
+    std::vector<Index> first_triangle(nf + 1, 0);
     for (Index f = 0; f < nf; ++f)
-        n_tri += slot_of[f] < 0 ? 1 : placed[slot_of[f]].count;
+        first_triangle[f + 1] = first_triangle[f] + (slot_of[f] < 0 ? 1 : placed[slot_of[f]].count);
+    const Index n_tri = first_triangle[nf];
     TriangleMatrix F(n_tri, 3);
     std::vector<Complex> along_new(3 * static_cast<std::size_t>(n_tri));
     std::vector<Index> halfedge_cut(3 * static_cast<std::size_t>(n_tri));
@@ -522,43 +526,46 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     std::vector<Index> halfedge_piece(3 * static_cast<std::size_t>(n_tri), kInner);
     std::vector<Index> piece_halfedge(2 * static_cast<std::size_t>(first_piece.back()), kNoHalfedge);
     out.original_face.resize(n_tri);
-    Index g = 0;
-    for (Index f = 0; f < nf; ++f) {
-        if (slot_of[f] < 0) {
-            out.original_face[g] = f;
-            const std::array<Complex, 3> corner{chart_corner(along, f, 0), chart_corner(along, f, 1),
-                                                chart_corner(along, f, 2)};
-            for (int k = 0; k < 3; ++k) {
-                const Index h = 3 * f + k;
-                F(g, k) = mesh.F(f, k);
-                along_new[3 * g + k] = corner[(k + 1) % 3] - corner[k];
-                halfedge_cut[3 * g + k] = label(h);
-                halfedge_piece[3 * g + k] = 2 * first_piece[mesh.halfedge_edge[h]] + (mesh.edge_sign(h) < 0);
+    par::for_each_range(static_cast<std::size_t>(nf), kParallelAssemblyFaces, [&](std::size_t begin, std::size_t end) {
+        for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
+            Index g = first_triangle[f];
+            if (slot_of[f] < 0) {
+                out.original_face[g] = f;
+                const std::array<Complex, 3> corner{chart_corner(along, f, 0), chart_corner(along, f, 1),
+                                                    chart_corner(along, f, 2)};
+                for (int k = 0; k < 3; ++k) {
+                    const Index h = 3 * f + k;
+                    F(g, k) = mesh.F(f, k);
+                    along_new[3 * g + k] = corner[(k + 1) % 3] - corner[k];
+                    halfedge_cut[3 * g + k] = label(h);
+                    halfedge_piece[3 * g + k] = 2 * first_piece[mesh.halfedge_edge[h]] + (mesh.edge_sign(h) < 0);
+                }
+                continue;
             }
-            ++g;
-            continue;
-        }
-        const Index first = 3 * g;
-        for (const Triangle& t : face_triangles(slot_of[f])) {
-            out.original_face[g] = f;
-            for (int k = 0; k < 3; ++k) {
-                F(g, k) = t.v[k];
-                along_new[3 * g + k] = t.image[(k + 1) % 3] - t.image[k];
-                halfedge_cut[3 * g + k] = t.cut[k];
-                halfedge_piece[3 * g + k] = t.piece[k];
-                if (t.piece[k] == kInner) twin[3 * g + k] = first + t.partner[k];
+            const Index first = 3 * g;
+            for (const Triangle& t : face_triangles(slot_of[f])) {
+                out.original_face[g] = f;
+                for (int k = 0; k < 3; ++k) {
+                    F(g, k) = t.v[k];
+                    along_new[3 * g + k] = t.image[(k + 1) % 3] - t.image[k];
+                    halfedge_cut[3 * g + k] = t.cut[k];
+                    halfedge_piece[3 * g + k] = t.piece[k];
+                    if (t.piece[k] == kInner) twin[3 * g + k] = first + t.partner[k];
+                }
+                ++g;
             }
-            ++g;
         }
-    }
+    });
     bool pieces_once = true;  // each side of each piece in one triangle (else a degenerate split)
     for (Index h = 0; h < 3 * n_tri; ++h) {
         if (halfedge_piece[h] == kInner) continue;
         pieces_once = pieces_once && piece_halfedge[halfedge_piece[h]] == kNoHalfedge;
         piece_halfedge[halfedge_piece[h]] = h;
     }
-    for (Index h = 0; h < 3 * n_tri; ++h)
-        if (halfedge_piece[h] != kInner) twin[h] = piece_halfedge[halfedge_piece[h] ^ 1];
+    par::for_each_range(3 * static_cast<std::size_t>(n_tri), kParallelAssemblyFaces, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t h = begin; h < end; ++h)
+            if (halfedge_piece[h] != kInner) twin[h] = piece_halfedge[halfedge_piece[h] ^ 1];
+    });
     for (Index s : skipped) out.skipped_segments += s;
     if (out.skipped_segments > 0) drop_unused_points(V, F, out.original_vertex);
     // Where the construction does not pair up, the pairing by vertex pairs names the fault.
@@ -566,11 +573,18 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         pieces_once && std::none_of(inner_unpaired.begin(), inner_unpaired.end(), [](char c) { return c; });
     out.mesh = paired ? make_mesh_view(std::move(V), std::move(F), std::move(twin))
                       : make_mesh_view(std::move(V), std::move(F));
-    out.tau.resize(out.mesh.n_edges());
-    for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along_new[out.mesh.edge_halfedge[e]];
-    out.edge_trajectory.assign(out.mesh.n_edges(), kNoBorder);
-    for (Index h = 0; h < out.mesh.n_halfedges(); ++h)
-        if (halfedge_cut[h] != kNoBorder) out.edge_trajectory[out.mesh.halfedge_edge[h]] = halfedge_cut[h];
+    // Per edge: the form along its halfedge, and the label of its later labelled halfedge.
+    const MeshView& cut = out.mesh;
+    out.tau.resize(cut.n_edges());
+    out.edge_trajectory.assign(cut.n_edges(), kNoBorder);
+    par::for_each_range(static_cast<std::size_t>(cut.n_edges()), kParallelAssemblyFaces, [&](std::size_t begin, std::size_t end) {
+        for (Index e = static_cast<Index>(begin); e < static_cast<Index>(end); ++e) {
+            const Index h = cut.edge_halfedge[e], t = cut.twin[h];
+            out.tau(e) = along_new[h];
+            for (const Index side : {std::min(h, t), std::max(h, t)})
+                if (side != kNoHalfedge && halfedge_cut[side] != kNoBorder) out.edge_trajectory[e] = halfedge_cut[side];
+        }
+    });
     return out;
 }
 

@@ -6,8 +6,11 @@
 #include <complex>
 
 #include <Eigen/Geometry>
+#include <tbb/global_control.h>
 
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/shapes.h"
+#include "holoflow/kernels/trajectories.h"
 
 namespace holoflow::kernels {
 namespace {
@@ -244,6 +247,46 @@ TEST(FlowCut, PointOnTheEdgeOfAFaceNoCurveEntersSplitsThatFace) {
     EXPECT_EQ(cut.mesh.n_faces(), 4);
     EXPECT_EQ(std::count(cut.mesh.twin.begin(), cut.mesh.twin.end(), kNoHalfedge), 4);
     EXPECT_EQ(cut.mesh.twin, make_mesh_view(cut.mesh.V, cut.mesh.F).twin);
+}
+
+// Large cuts are assembled in parallel blocks (every face, halfedge and edge writes its own
+// slots): the same cut mesh, form and labels with one thread.
+TEST(FlowCut, LargeCutIsTheSameWithAnyThreadCount) {
+    const MeshView grid = shapes::flat_grid(90, 80);  // 14400 faces
+    Eigen::VectorXcd tau(grid.n_edges());
+    const std::complex<double> turn = std::polar(1.0, 0.3);  // curves cross the faces obliquely
+    for (Index e = 0; e < grid.n_edges(); ++e) {
+        const Eigen::RowVector3d d = grid.V.row(grid.E(e, 1)) - grid.V.row(grid.E(e, 0));
+        tau(e) = turn * std::complex<double>(d(0), d(1));
+    }
+    std::vector<Index> starts;
+    for (int row = 10; row < 80; row += 17)
+        for (int column = 7; column < 90; column += 23) starts.push_back(row * 91 + column);
+    const std::vector<TrajectoryFamily> families{TrajectoryFamily::Vertical, TrajectoryFamily::Horizontal};
+    TraceOptions options;
+    options.motorcycle = true;
+    const std::vector<Trajectory> curves = trace_trajectories(grid, tau, starts, families, options);
+    std::vector<Index> labels(grid.n_edges(), kNoBorder);
+    for (Index e = 0; e < grid.n_edges(); e += 7) labels[e] = e % 11;
+    const auto cut_with = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        return cut_along_trajectories(grid, tau, curves, labels);
+    };
+    const CutMesh one = cut_with(1), two = cut_with(2);
+    EXPECT_GT(one.mesh.n_faces(), grid.n_faces() + 1000);
+    EXPECT_EQ(one.skipped_segments, 0);
+    EXPECT_EQ(one.mesh.twin, make_mesh_view(one.mesh.V, one.mesh.F).twin);
+    EXPECT_EQ(one.mesh.V, two.mesh.V);
+    EXPECT_EQ(one.mesh.F, two.mesh.F);
+    EXPECT_EQ(one.mesh.twin, two.mesh.twin);
+    EXPECT_EQ(one.tau, two.tau);
+    EXPECT_EQ(one.edge_trajectory, two.edge_trajectory);
+    EXPECT_EQ(one.original_face, two.original_face);
+    EXPECT_EQ(one.original_vertex, two.original_vertex);
+    // Every input label is kept on the pieces of its edge; the curves' own edges carry theirs.
+    Index labelled = 0;
+    for (Index e = 0; e < one.mesh.n_edges(); ++e) labelled += one.edge_trajectory[e] != kNoBorder;
+    EXPECT_GT(labelled, grid.n_edges() / 7);
 }
 
 TEST(FlowCut, LabelsMustMatchTheEdges) {
