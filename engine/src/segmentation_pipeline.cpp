@@ -492,7 +492,8 @@ void fans(SegmentationWork& work) {
     // the refinements chose: as what a region takes changes what the later ones find, it
     // can fail more elsewhere, and a surface that it makes look better can stop refinements
     // that would have placed every fan (polygon_mesh: 3 failed regions left instead of none).
-    if (r.regular.failed_regions > 0) {
+    // Where no failed region could grow again, that run would repeat this one: it is skipped.
+    if (r.regular.failed_regions > 0 && r.regular.regrowable_failures > 0) {
         kernels::FanOptions regrow;
         regrow.regrow_failed = true;
         kernels::RegularisedForm regrown = regularised(work, regrow);

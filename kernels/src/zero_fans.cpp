@@ -232,14 +232,17 @@ class Builder {
                     continue;
                 // A failed region may grow once more from its irregular vertices only.
                 const Index g = static_cast<Index>(r);
-                if (!solve_or_undo(groups, g, pass == 2, false) && options_.regrow_failed && has_regular_seeds(groups[g]))
-                    solve_or_undo(groups, g, pass == 2, true);
+                if (!solve_or_undo(groups, g, pass == 2, false) && has_regular_seeds(groups[g])) {
+                    ++regrowable_;
+                    if (options_.regrow_failed) solve_or_undo(groups, g, pass == 2, true);
+                }
             }
         }
         return groups;
     }
 
     const std::vector<int>& flips() const { return flip_; }
+    Index regrowable_failures() const { return regrowable_; }
 
     // Regions whose group was not accepted, in itself or within another one, by their weight.
     Index failed_weight(const std::vector<Group>& groups) const {
@@ -1043,6 +1046,7 @@ class Builder {
     std::vector<Complex> image_, origin_;
     std::vector<char> cut_;
     std::vector<Index> flooded_;  // fill_holes' scratch, kept for its capacity
+    Index regrowable_ = 0;        // failed solves whose region could grow again (run())
     Index generation_ = 0;
     Index face_cap_ = 0;
     std::vector<std::pair<Index, Group>> undo_;  // groups as they were before the current solve
@@ -1126,6 +1130,7 @@ RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion>
     RegularisedForm out;
     Builder builder(mesh, regions, options);
     const std::vector<Group> groups = builder.run();
+    out.regrowable_failures = builder.regrowable_failures();
     const std::vector<Complex>& along = mesh.along;
     std::vector<Index> accepted;
     for (std::size_t g = 0; g < groups.size(); ++g)

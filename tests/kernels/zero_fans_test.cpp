@@ -166,6 +166,38 @@ TEST(ZeroFans, LeftoverFoldsCanBeLeftWithoutChangingWhichRegionsFail) {
     EXPECT_EQ(check_image(partial.mesh, partial.tau).flipped, partial.flipped_faces);
 }
 
+// A simple zero placed where the image is regular (it winds once) has no fan. Its region is
+// grown again from its other cluster vertices only when it has some: a region of the zero's
+// vertex alone counts no regrowable failure, and a run with regrow_failed repeats it exactly
+// (the pipeline then skips that run).
+TEST(ZeroFans, RegrowableFailuresAreCounted) {
+    const MeshView m = shapes::flat_grid(12, 12);
+    std::vector<Complex> image(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) image[v] = point(m, v);
+    const Eigen::VectorXcd tau = form_of(m, image);
+    const Index centre = 6 * 13 + 6;
+    ZeroRegion alone;
+    alone.order = 1;
+    alone.vertex = centre;
+    alone.vertices = {centre};
+    FanOptions regrow;
+    regrow.regrow_failed = true;
+    const RegularisedForm once = regularise_zeros(m, tau, std::vector<ZeroRegion>{alone});
+    EXPECT_EQ(once.failed_regions, 1);
+    EXPECT_EQ(once.regrowable_failures, 0);
+    const RegularisedForm again = regularise_zeros(m, tau, std::vector<ZeroRegion>{alone}, regrow);
+    EXPECT_EQ(again.failed_regions, once.failed_regions);
+    EXPECT_EQ(again.mesh.F, once.mesh.F);
+    EXPECT_EQ(again.tau, once.tau);
+    EXPECT_EQ(again.region_vertex, once.region_vertex);
+
+    ZeroRegion cluster = alone;
+    cluster.vertices = {centre, centre + 1};  // a cluster vertex where the image is regular
+    const RegularisedForm grown = regularise_zeros(m, tau, std::vector<ZeroRegion>{cluster});
+    EXPECT_EQ(grown.failed_regions, 1);
+    EXPECT_GT(grown.regrowable_failures, 0);
+}
+
 // Without regions and folds the mesh passes through as it is: the same triangles and form,
 // identity maps (a torus without folds keeps the surface's homology cut graph this way).
 TEST(ZeroFans, NoRegionAndNoFoldKeepsTheMesh) {

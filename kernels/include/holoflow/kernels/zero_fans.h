@@ -59,6 +59,10 @@ struct RegularisedForm {
     Index merged_regions = 0;
     Index flipped_faces = 0;             //!< flipped image triangles left in `mesh`
     Index edge_flips = 0;                //!< edges flipped before any region was re-triangulated
+    //! Failed solves after which FanOptions::regrow_failed grows the region again (its cluster
+    //! has a vertex where the image is regular). Where 0, a run with regrow_failed does exactly
+    //! what this one did and gives this same result.
+    Index regrowable_failures = 0;
 };
 
 //! \brief First flips every edge whose flip turns a flipped image triangle and its neighbour
