@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <span>
 
 #include <Eigen/Geometry>
 #include <Eigen/QR>
@@ -241,17 +242,23 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
                      "cotan weights need the triangulation they belong to");
     const Index nv = mesh.n_vertices(), nf = mesh.n_faces();
     ZeroSet z;
-    count_windings(mesh, tau, z);
+    // The image windings, the saddles and the unresolved regions read the same form and write
+    // their own results: large meshes count them side by side.
+    const bool parallel = nf >= kParallelFaces;
 
     // Saddles, on the intrinsic Delaunay triangulation when asked (same vertices, the form
     // carried exactly through the flips); a mesh it cannot take (zero-area faces) counts on
     // itself. Its edges between two saddles join their groups below.
     std::vector<std::pair<Index, Index>> intrinsic_saddle_edges;
     UnresolvedRegions noise;
-    {
+    const auto saddles_and_noise = [&] {
         Eigen::MatrixXd forms(mesh.n_edges(), 2);
         forms.col(0) = tau.real();
         forms.col(1) = tau.imag();
+        const auto count_on = [&](const MeshView& t, std::span<const double> edge_length, const Eigen::MatrixXd& f) {
+            par::run_together(parallel, {[&] { z.saddle_order = count_saddles(t, f.col(0), f.col(1)); },
+                                         [&] { noise = unresolved_regions(t, edge_length, f.col(0), options.weights); }});
+        };
         if (options.intrinsic_delaunay) {
             try {
                 IntrinsicTriangulation computed;
@@ -259,24 +266,20 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
                 const IntrinsicTriangulation& t = options.triangulation ? *options.triangulation : computed;
                 HOLOFLOW_REQUIRE(t.mesh.n_vertices() == nv && t.mesh.n_edges() == mesh.n_edges(),
                                  "the given intrinsic triangulation is not of this mesh");
-                const Eigen::MatrixXd carried = carry_forms(t, forms);
-                z.saddle_order = count_saddles(t.mesh, carried.col(0), carried.col(1));
+                count_on(t.mesh, t.edge_length, carry_forms(t, forms));
                 for (Index e = 0; e < t.mesh.n_edges(); ++e) {
                     const Index a = t.mesh.E(e, 0), b = t.mesh.E(e, 1);
                     if (a != b && z.saddle_order[a] != 0 && z.saddle_order[b] != 0)
                         intrinsic_saddle_edges.emplace_back(a, b);
                 }
                 z.intrinsic = true;
-                noise = unresolved_regions(t.mesh, t.edge_length, carried.col(0), options.weights);
             } catch (const InvalidInput&) {
                 if (options.triangulation) throw;  // a wrong triangulation is the caller's bug
             }
         }
-        if (!z.intrinsic) {
-            z.saddle_order = count_saddles(mesh, forms.col(0), forms.col(1));
-            noise = unresolved_regions(mesh, {}, forms.col(0), options.weights);
-        }
-    }
+        if (!z.intrinsic) count_on(mesh, {}, forms);
+    };
+    par::run_together(parallel, {[&] { count_windings(mesh, tau, z); }, saddles_and_noise});
     z.unresolved_vertices = noise.vertices;
     const auto in_unresolved_region = [&](Index v) { return !noise.region.empty() && noise.region[v] >= 0; };
 

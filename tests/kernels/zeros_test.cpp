@@ -9,8 +9,11 @@
 #include <numeric>
 #include <random>
 
+#include <tbb/global_control.h>
+
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/kernels/shapes.h"
+#include "holoflow/kernels/subdivision.h"
 #include "support/plane_zeros.h"
 #include "support/test_support.h"
 
@@ -129,6 +132,36 @@ TEST(Zeros, ProceduralSurfacesOfHigherGenus) {
         EXPECT_EQ(saddle_sum(z), 2 * genus - 2);
         EXPECT_EQ(z.total_order, 2 * genus - 2);
         EXPECT_EQ(z.artifact_clusters, 0);
+    }
+}
+
+// From 20000 faces the windings, the saddles and the unresolved regions are counted side by
+// side: the same zero set with one thread, on the intrinsic triangulation and on the mesh.
+TEST(Zeros, LargeMeshesGiveTheSameZerosWithAnyThreadCount) {
+    const MeshView mesh = subdivide_loop(*test::corpus_mesh("femur"));  // 31192 faces
+    ASSERT_GE(mesh.n_faces(), 20000);
+    const engine::ConformalResult c = engine::compute_conformal(mesh);
+    for (const bool intrinsic : {true, false}) {
+        SCOPED_TRACE(intrinsic);
+        ZeroOptions options;
+        options.intrinsic_delaunay = intrinsic;
+        const auto zeros_with = [&](int threads) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+            return find_zeros(*c.surface, c.tau, options);
+        };
+        const ZeroSet one = zeros_with(1), two = zeros_with(2);
+        EXPECT_EQ(one.intrinsic, intrinsic);
+        EXPECT_EQ(one.total_order, 2);
+        EXPECT_EQ(one.winding, two.winding);
+        EXPECT_EQ(one.face_flip, two.face_flip);
+        EXPECT_EQ(one.saddle_order, two.saddle_order);
+        EXPECT_EQ(one.unresolved_vertices, two.unresolved_vertices);
+        EXPECT_EQ(one.total_index, two.total_index);
+        ASSERT_EQ(one.zeros.size(), two.zeros.size());
+        for (std::size_t i = 0; i < one.zeros.size(); ++i) {
+            EXPECT_EQ(one.zeros[i].vertex, two.zeros[i].vertex);
+            EXPECT_EQ(one.zeros[i].order, two.zeros[i].order);
+        }
     }
 }
 
