@@ -21,7 +21,7 @@ namespace holoflow::kernels {
 namespace {
 
 using Complex = std::complex<double>;
-constexpr Index kParallelFaces = 20000;
+constexpr Index kParallelFaces = 8000;
 // A vertex whose harmonicity residual |sum_e w_e du_e| is above this fraction of sum_e w_e |du_e|
 // has du that are rounding noise: resolved vertices sit at 1e-13 and below, noise at 0.1-1
 // (femur, lion, pizza, cheese and elephant-with-holes stretched 2.5:0.6 or jittered; dancer's
