@@ -16,8 +16,9 @@ namespace {
 
 using Complex = std::complex<double>;
 constexpr Index kParallelFaces = 2000;
-// The assembly's loops are a few stores per face: below this many, one thread is faster.
-constexpr std::size_t kParallelAssemblyFaces = 8192;
+// The assembly's loops do a few stores per face, halfedge or edge: blocks of this many (fewer
+// run on one thread, which is faster then).
+constexpr std::size_t kAssemblyGrain = 8192;
 
 // A segment of a trajectory inside one face, by point ids.
 struct FaceSegment {
@@ -526,7 +527,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     std::vector<Index> halfedge_piece(3 * static_cast<std::size_t>(n_tri), kInner);
     std::vector<Index> piece_halfedge(2 * static_cast<std::size_t>(first_piece.back()), kNoHalfedge);
     out.original_face.resize(n_tri);
-    par::for_each_range(static_cast<std::size_t>(nf), kParallelAssemblyFaces, [&](std::size_t begin, std::size_t end) {
+    par::for_each_range(static_cast<std::size_t>(nf), kAssemblyGrain, [&](std::size_t begin, std::size_t end) {
         for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
             Index g = first_triangle[f];
             if (slot_of[f] < 0) {
@@ -562,7 +563,8 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         pieces_once = pieces_once && piece_halfedge[halfedge_piece[h]] == kNoHalfedge;
         piece_halfedge[halfedge_piece[h]] = h;
     }
-    par::for_each_range(3 * static_cast<std::size_t>(n_tri), kParallelAssemblyFaces, [&](std::size_t begin, std::size_t end) {
+    const auto n_halfedges = 3 * static_cast<std::size_t>(n_tri);
+    par::for_each_range(n_halfedges, kAssemblyGrain, [&](std::size_t begin, std::size_t end) {
         for (std::size_t h = begin; h < end; ++h)
             if (halfedge_piece[h] != kInner) twin[h] = piece_halfedge[halfedge_piece[h] ^ 1];
     });
@@ -577,12 +579,14 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
     const MeshView& cut = out.mesh;
     out.tau.resize(cut.n_edges());
     out.edge_trajectory.assign(cut.n_edges(), kNoBorder);
-    par::for_each_range(static_cast<std::size_t>(cut.n_edges()), kParallelAssemblyFaces, [&](std::size_t begin, std::size_t end) {
+    const auto n_edges = static_cast<std::size_t>(cut.n_edges());
+    par::for_each_range(n_edges, kAssemblyGrain, [&](std::size_t begin, std::size_t end) {
         for (Index e = static_cast<Index>(begin); e < static_cast<Index>(end); ++e) {
             const Index h = cut.edge_halfedge[e], t = cut.twin[h];
             out.tau(e) = along_new[h];
             for (const Index side : {std::min(h, t), std::max(h, t)})
-                if (side != kNoHalfedge && halfedge_cut[side] != kNoBorder) out.edge_trajectory[e] = halfedge_cut[side];
+                if (side != kNoHalfedge && halfedge_cut[side] != kNoBorder)
+                    out.edge_trajectory[e] = halfedge_cut[side];
         }
     });
     return out;

@@ -507,12 +507,13 @@ class Builder {
                     for (int j = 0; j < 3 && hole; ++j) {
                         const Index u = mesh_.twin[3 * x + j];
                         if (u == kNoHalfedge) hole = false;
-                        else if (!mark_[MeshView::face(u)]) mark_[MeshView::face(u)] = 2, flooded_.push_back(MeshView::face(u));
+                        else if (const Index y = MeshView::face(u); !mark_[y]) mark_[y] = 2, flooded_.push_back(y);
                     }
                 }
                 // Outside pieces stay marked 2 until done.
                 if (hole)
-                    for (std::size_t q = first; q < flooded_.size(); ++q) mark_[flooded_[q]] = 1, added.push_back(flooded_[q]);
+                    for (std::size_t q = first; q < flooded_.size(); ++q)
+                        mark_[flooded_[q]] = 1, added.push_back(flooded_[q]);
             }
         for (Index x : flooded_) mark_[x] = 0;
         for (Index f : faces) mark_[f] = 0;
