@@ -10,6 +10,7 @@
 
 #include "holoflow/kernels/conformal_map.h"
 #include "holoflow/kernels/errors.h"
+#include "holoflow/kernels/parallel.h"
 #include "holoflow/kernels/union_find.h"
 #include "holoflow/kernels/zeros.h"
 
@@ -26,6 +27,7 @@ constexpr double kOrientationTol = 1e-12;  // image cross product relative to sq
 constexpr double kDegenerateTol = 1e-12;   // 3D cross product relative to squared lengths
 constexpr double kTouchTol = 1e-10;        // image distances relative to the region's extent
 constexpr Index kCentre = -1;              // point id of the centre in a triangle
+constexpr std::size_t kParallelKeptFaces = 8192;  // the new mesh's copy loops: blocks of this many
 
 // Flipped image triangles of a mesh whose halfedge images are `along` (faces from first_face on).
 Index count_flipped_images(const std::vector<Complex>& along, Index first_face = 0) {
@@ -1221,25 +1223,30 @@ RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion>
             HOLOFLOW_REQUIRE(r.open && (key.first == kCentre || key.second == kCentre),
                              "re-triangulated region is not closed");
     }
-    for (Index f = 0; f < mesh.n_faces(); ++f) {
-        if (face_removed[f]) continue;
-        const Index g = new_face[f];
-        out.original_face[g] = f;
-        for (int k = 0; k < 3; ++k) {
-            const Index h = 3 * f + k;
-            F(g, k) = new_vertex[mesh.F(f, k)];
-            along_new[3 * g + k] = along[h];
-            const Index t = mesh.twin[h];
-            if (t == kNoHalfedge) continue;
-            if (!face_removed[MeshView::face(t)]) {
-                twin[3 * g + k] = 3 * new_face[MeshView::face(t)] + t % 3;
-            } else {
-                const Index owner = chain_owner[t];
-                twin[3 * g + k] = owner;
-                twin[owner] = 3 * g + k;
+    // Kept faces in parallel blocks: each writes its own rows, and the one region halfedge that
+    // owns the chain halfedge across from it (each has one kept face across).
+    const auto n_faces = static_cast<std::size_t>(mesh.n_faces());
+    par::for_each_range(n_faces, kParallelKeptFaces, [&](std::size_t b, std::size_t e) {
+        for (Index f = static_cast<Index>(b); f < static_cast<Index>(e); ++f) {
+            if (face_removed[f]) continue;
+            const Index g = new_face[f];
+            out.original_face[g] = f;
+            for (int k = 0; k < 3; ++k) {
+                const Index h = 3 * f + k;
+                F(g, k) = new_vertex[mesh.F(f, k)];
+                along_new[3 * g + k] = along[h];
+                const Index t = mesh.twin[h];
+                if (t == kNoHalfedge) continue;
+                if (!face_removed[MeshView::face(t)]) {
+                    twin[3 * g + k] = 3 * new_face[MeshView::face(t)] + t % 3;
+                } else {
+                    const Index owner = chain_owner[t];
+                    twin[3 * g + k] = owner;
+                    twin[owner] = 3 * g + k;
+                }
             }
         }
-    }
+    });
     // Two regions touching along an edge: their chain halfedges pair up directly.
     for (Index g : accepted)
         for (Index h : groups[g].result.chain) {
@@ -1264,7 +1271,10 @@ RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion>
 
     out.mesh = make_mesh_view(std::move(V), std::move(F), std::move(twin));
     out.tau.resize(out.mesh.n_edges());
-    for (Index e = 0; e < out.mesh.n_edges(); ++e) out.tau(e) = along_new[out.mesh.edge_halfedge[e]];
+    const auto n_edges = static_cast<std::size_t>(out.mesh.n_edges());
+    par::for_each_range(n_edges, kParallelKeptFaces, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) out.tau(static_cast<Index>(i)) = along_new[out.mesh.edge_halfedge[i]];
+    });
 
     // What is left: failed regions, or none. Kept faces keep their images, so their flips.
     for (Index f = 0; f < mesh.n_faces(); ++f) out.flipped_faces += !face_removed[f] && builder.flips()[f] != 0;

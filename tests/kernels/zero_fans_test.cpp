@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include <Eigen/Geometry>
+#include <tbb/global_control.h>
 
 #include "holoflow/engine/segmentation_pipeline.h"
 #include "holoflow/kernels/conformal_map.h"
@@ -164,6 +165,37 @@ TEST(ZeroFans, LeftoverFoldsCanBeLeftWithoutChangingWhichRegionsFail) {
     EXPECT_EQ(check_image(full.mesh, full.tau).flipped, 0);
     EXPECT_GT(partial.flipped_faces, 0);
     EXPECT_EQ(check_image(partial.mesh, partial.tau).flipped, partial.flipped_faces);
+}
+
+// From 8192 faces the new mesh's kept faces are copied in parallel blocks, each pairing its
+// halfedges with the fans' chain halfedges across: the same mesh and form with one thread.
+TEST(ZeroFans, LargeMeshIsTheSameWithAnyThreadCount) {
+    const MeshView m = shapes::flat_grid(80, 80);  // 12800 faces
+    std::vector<Complex> image(m.n_vertices());
+    for (Index v = 0; v < m.n_vertices(); ++v) image[v] = point(m, v);
+    std::vector<ZeroRegion> regions;
+    for (const Index v : {10 * 81 + 10, 40 * 81 + 41, 70 * 81 + 25}) {  // folds, beyond their one-ring
+        image[v] += Complex(0.018, 0.011);
+        ZeroRegion fold;
+        fold.vertices = {v};
+        regions.push_back(fold);
+    }
+    const Eigen::VectorXcd tau = form_of(m, image);
+    const auto regularised_with = [&](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        return regularise_zeros(m, tau, regions);
+    };
+    const RegularisedForm one = regularised_with(1), two = regularised_with(2);
+    EXPECT_EQ(one.failed_regions, 0);
+    EXPECT_GT(one.removed_vertices, 0);
+    EXPECT_EQ(one.flipped_faces, 0);
+    EXPECT_EQ(check_image(one.mesh, one.tau).flipped, 0);
+    EXPECT_EQ(one.mesh.twin, make_mesh_view(one.mesh.V, one.mesh.F).twin);
+    EXPECT_EQ(one.mesh.F, two.mesh.F);
+    EXPECT_EQ(one.mesh.twin, two.mesh.twin);
+    EXPECT_EQ(one.tau, two.tau);
+    EXPECT_EQ(one.original_face, two.original_face);
+    EXPECT_EQ(one.original_vertex, two.original_vertex);
 }
 
 // A simple zero placed where the image is regular (it winds once) has no fan. Its region is
