@@ -575,7 +575,8 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         pieces_once && std::none_of(inner_unpaired.begin(), inner_unpaired.end(), [](char c) { return c; });
     out.mesh = paired ? make_mesh_view(std::move(V), std::move(F), std::move(twin))
                       : make_mesh_view(std::move(V), std::move(F));
-    // Per edge: the form along its halfedge, and the label of its later labelled halfedge.
+    // Per edge: the form along its halfedge (the smaller of the pair), and the label of its
+    // later labelled halfedge (the twin's where both have one).
     const MeshView& cut = out.mesh;
     out.tau.resize(cut.n_edges());
     out.edge_trajectory.assign(cut.n_edges(), kNoBorder);
@@ -584,7 +585,7 @@ CutMesh cut_along_trajectories(const MeshView& mesh, const Eigen::VectorXcd& tau
         for (Index e = static_cast<Index>(begin); e < static_cast<Index>(end); ++e) {
             const Index h = cut.edge_halfedge[e], t = cut.twin[h];
             out.tau(e) = along_new[h];
-            for (const Index side : {std::min(h, t), std::max(h, t)})
+            for (const Index side : {h, t})
                 if (side != kNoHalfedge && halfedge_cut[side] != kNoBorder)
                     out.edge_trajectory[e] = halfedge_cut[side];
         }
