@@ -3,6 +3,7 @@
 // 73.8k, 295k faces), named `BM_kernel_<what>/loop:L`:
 //   laplacian_assembly   cotan_weights_from_lengths + assemble_laplacian (intrinsic lengths)
 //   intrinsic_delaunay   intrinsic_delaunay carrying the 2g closed forms
+//   carry_forms          carry_forms of the 2g closed forms onto that intrinsic triangulation
 //   cholesky_analyse     CholeskySymbolic::analyse of that Laplacian
 //   cholesky_factorize   CholeskyFactor::factorize, numeric only, reusing the analysis
 //   cholesky_solve       one solve with the 2g harmonic right-hand sides
@@ -248,6 +249,21 @@ void BM_kernel_intrinsic_delaunay(benchmark::State& state) {
         for (auto _ : state) {
             const kernels::IntrinsicTriangulation t = kernels::intrinsic_delaunay(*in.mesh, eta);
             benchmark::DoNotOptimize(t.edge_length.data());
+        }
+    });
+}
+
+void BM_kernel_carry_forms(benchmark::State& state) {
+    with_inputs(state, conformal_inputs, [&](const ConformalInputs& in) {
+        const Eigen::MatrixXd& eta = in.homology.closed_forms;
+        const kernels::IntrinsicTriangulation t = kernels::intrinsic_delaunay(*in.mesh, eta);
+        if (kernels::closedness_error(t.mesh, kernels::carry_forms(t, eta)) != 0)
+            return fail(state, "carried forms are not closed");
+        state.counters["flips"] = static_cast<double>(t.form_flips.size());
+        state.counters["forms"] = static_cast<double>(eta.cols());
+        for (auto _ : state) {
+            const Eigen::MatrixXd carried = kernels::carry_forms(t, eta);
+            benchmark::DoNotOptimize(carried.data());
         }
     });
 }
@@ -610,6 +626,7 @@ int main(int argc, char** argv) {
     if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
     register_kernel("BM_kernel_laplacian_assembly", BM_kernel_laplacian_assembly);
     register_kernel("BM_kernel_intrinsic_delaunay", BM_kernel_intrinsic_delaunay);
+    register_kernel("BM_kernel_carry_forms", BM_kernel_carry_forms);
     register_kernel("BM_kernel_cholesky_analyse", BM_kernel_cholesky_analyse);
     register_kernel("BM_kernel_cholesky_factorize", BM_kernel_cholesky_factorize);
     register_kernel("BM_kernel_cholesky_solve", BM_kernel_cholesky_solve);

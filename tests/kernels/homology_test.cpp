@@ -1,6 +1,7 @@
 #include "holoflow/kernels/homology.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cctype>
@@ -206,6 +207,24 @@ TEST(Homology, GenusSurfacesHaveUnimodularIntersection) {
         const MeshView mesh = shapes::genus_surface(g, 2);
         check_homology_basis(mesh, compute_homology_basis(mesh), g);
     }
+}
+
+// On more than 20000 edges the closed forms are peeled in parallel, each form its own column:
+// one thread or two, the same bits.
+TEST(Homology, SameBitsOnOneOrTwoThreads) {
+    const MeshView mesh = subdivide_midpoint(subdivide_midpoint(subdivide_midpoint(shapes::genus_surface(6, 2))));
+    ASSERT_GT(mesh.n_edges(), 20000);
+    HomologyBasis one, two;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        one = compute_homology_basis(mesh);
+    }
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+        two = compute_homology_basis(mesh);
+    }
+    check_homology_basis(mesh, two, 6);
+    expect_identical(one, two);
 }
 
 TEST(Homology, SubdividedSurfaceKeepsInvariants) {

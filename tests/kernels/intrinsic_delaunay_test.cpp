@@ -1,6 +1,7 @@
 #include "holoflow/kernels/intrinsic_delaunay.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <cstdio>
 #include <memory>
 #include <numbers>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -306,6 +308,31 @@ TEST(IntrinsicDelaunay, TwistedTorusIndexFormsKeepTheirWedge) {
     EXPECT_TRUE(wedge_matrix(r.mesh, r.forms) == expected) << wedge_matrix(r.mesh, r.forms);
     const double area = total_area(torus, euclidean_lengths(torus));
     EXPECT_NEAR(total_area(r.mesh, r.edge_length), area, kLengthTol * area);
+}
+
+// carry_forms replays the flips column by column, in parallel from 16384 edges: each column must
+// get exactly the arithmetic of a replay of its own, also for real-valued forms (where another
+// order of the additions would round differently), on one thread or two.
+TEST(IntrinsicDelaunay, CarriedFormsAreEachColumnsOwnReplay) {
+    const MeshView grid = sheared_grid(100, 90, 2.3, 0.35);
+    ASSERT_GE(grid.n_edges(), 16384);
+    const IntrinsicTriangulation r = intrinsic_delaunay(grid);
+    ASSERT_GT(r.form_flips.size(), 1000u);
+    std::mt19937_64 rng(20261207);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    Eigen::MatrixXd forms(grid.n_edges(), 11);
+    for (Eigen::Index k = 0; k < forms.size(); ++k) forms.data()[k] = uniform(rng);
+    Eigen::MatrixXd expected(forms.rows(), forms.cols());
+    for (Eigen::Index j = 0; j < forms.cols(); ++j) {
+        Eigen::VectorXd eta = forms.col(j);
+        for (const FormFlip& f : r.form_flips) eta[f.edge] = f.sign_a * eta[f.from_a] + f.sign_b * eta[f.from_b];
+        for (Eigen::Index e = 0; e < forms.rows(); ++e) expected(e, j) = r.form_sign[e] * eta[r.form_slot[e]];
+    }
+    for (int threads : {1, 2}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        EXPECT_TRUE(carry_forms(r, forms) == expected) << threads << " threads";
+        EXPECT_TRUE(carry_forms(r, forms.leftCols(3)) == expected.leftCols(3)) << threads << " threads";
+    }
 }
 
 TEST(IntrinsicDelaunay, FlipCapStopsEarlyAndReportsIt) {
