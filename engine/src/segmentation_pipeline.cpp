@@ -186,10 +186,19 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
     work.options = std::move(options);
     SegmentationResult& r = work.result;
     r.mode = work.options.mode;
-    // The paper's mode traces the vertical family alone: on a form with integer periods its
-    // leaves all close, so the critical ones are saddle connections and the patches cylinders
-    // (or rectangles against a boundary), where a generic form's leaves would be dense.
-    if (r.mode == SegmentMode::Vertical) work.options.conformal.form = FormChoice::IntegerPeriods;
+    // The paper's mode traces the vertical family alone. Where a generic form's vertical leaves
+    // can be dense (the surface has handles), it takes a form with integer periods: its leaves all
+    // close, so the critical ones are saddle connections and the patches cylinders (or rectangles
+    // against a boundary). A planar domain (genus 0 with holes: tips sliced, or open input such
+    // as head) has no dense leaf, nor a closed one for a generic form, whose periods around the
+    // holes are not 0: its critical leaves end at zeros or on the boundary, and the patches are
+    // rectangles. There integer periods would put a whole period around each small tip hole
+    // (or zeros on its border), where the mesh cannot follow (bench/README, "Vertical mode on
+    // the unseen variants").
+    const auto choose_form = [&](const kernels::Topology& surface) {
+        if (r.mode == SegmentMode::Vertical && !(surface.genus == 0 && surface.boundary_loops > 0))
+            work.options.conformal.form = FormChoice::IntegerPeriods;
+    };
     StageClock clock(r.timings_ms);
 
     kernels::Topology topology = kernels::compute_topology(*work.input);
@@ -218,10 +227,12 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
         SlicedSurface sliced = slice_at_tips(input, topology, work.options, r);
         r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
         clock.lap("tip_slicing");
+        choose_form(sliced.topology);
         work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &sliced.topology);
     } else {
         HOLOFLOW_REQUIRE(work.options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
         r.traced_input = work.input;
+        choose_form(topology);
         work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &topology);
     }
     return work;
@@ -1015,6 +1026,9 @@ nlohmann::json segmentation_report(std::span<const SegmentationResult> component
     total["rectangle_error_max"] = rectangle_error;
     total["conformal_distortion"] = {{"mean", faces > 0 ? distortion_sum / faces : 0.0}, {"max", distortion_max}};
     total["double_covered"] = double_covered;
+    // Vertical mode chooses the form per component (planar domains keep the generic one).
+    for (const nlohmann::json& part : parts)
+        if (part["form"] != total["form"]) total["form"] = "mixed";
     total["timings_ms"] = timings_report(summed_times(components));
     total["torus_modulus"] = nullptr;
     total["component_count"] = parts.size();

@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -243,6 +245,35 @@ TEST(Cli, SegmentTakesEveryComponent) {
     EXPECT_EQ(one["genus"], 1);
 }
 
+// Vertical mode picks the form per component: eight (genus 2) takes integer periods, a sphere
+// (sliced at its tips: a planar domain) the generic form; the merged report says `mixed`.
+TEST(Cli, VerticalModeReportsEachComponentsForm) {
+    test::TempDir dir;
+    const std::shared_ptr<const MeshView> eight = test::corpus_mesh("eight");
+    const std::shared_ptr<const MeshView> sphere = test::corpus_mesh("sphere");
+    PointMatrix V(eight->n_vertices() + sphere->n_vertices(), 3);
+    TriangleMatrix F(eight->n_faces() + sphere->n_faces(), 3);
+    V.topRows(eight->n_vertices()) = eight->V;
+    V.bottomRows(sphere->n_vertices()) = sphere->V.rowwise() + Eigen::RowVector3d(10, 0, 0);
+    F.topRows(eight->n_faces()) = eight->F;
+    F.bottomRows(sphere->n_faces()) = sphere->F.array() + eight->n_vertices();
+    const std::filesystem::path both = dir.path() / "both.off";
+    {
+        std::ofstream out(both);
+        engine::write_off(out, make_mesh_view(std::move(V), std::move(F)));
+    }
+    const auto r = test::run_cli("segment '" + both.string() + "' -o '" + (dir.path() / "out").string() +
+                                 "' --mode vertical --json");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    ASSERT_EQ(j["component_count"], 2);
+    EXPECT_EQ(j["form"], "mixed");
+    std::vector<std::string> forms;
+    for (const auto& part : j["components"]) forms.push_back(part["form"]);
+    std::sort(forms.begin(), forms.end());
+    EXPECT_EQ(forms, (std::vector<std::string>{"generic", "integer_periods"}));
+}
+
 TEST(Cli, MissingFileAndDirectory) {
     const auto missing = test::run_cli("info /nonexistent/dir/mesh.off");
     EXPECT_EQ(missing.status, engine::exit_status(MeshErrorKind::FileNotFound));
@@ -381,7 +412,7 @@ TEST(Cli, SegmentWritesItsFilesAndJson) {
                                         "-v' --mode vertical --json");
     ASSERT_EQ(vertical.status, 0) << vertical.err;
     EXPECT_EQ(nlohmann::json::parse(vertical.out)["mode"], "vertical");
-    EXPECT_EQ(nlohmann::json::parse(vertical.out)["form"], "integer_periods");
+    EXPECT_EQ(nlohmann::json::parse(vertical.out)["form"], "generic");  // a planar domain
 }
 
 // With the extrinsic Laplacian the form is harmonic for the mesh's own cotan weights, so its
