@@ -1028,7 +1028,7 @@ nlohmann::json segmentation_report(std::span<const SegmentationResult> component
     total["double_covered"] = double_covered;
     // Vertical mode chooses the form per component (planar domains keep the generic one).
     for (const nlohmann::json& part : parts)
-        if (part["form"] != total["form"]) total["form"] = "mixed";
+        if (part["form"] != parts[0]["form"]) total["form"] = "mixed";
     total["timings_ms"] = timings_report(summed_times(components));
     total["torus_modulus"] = nullptr;
     total["component_count"] = parts.size();

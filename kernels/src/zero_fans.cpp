@@ -1226,8 +1226,8 @@ RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion>
     // Kept faces in parallel blocks: each writes its own rows, and the one region halfedge that
     // owns the chain halfedge across from it (each has one kept face across).
     const auto n_faces = static_cast<std::size_t>(mesh.n_faces());
-    par::for_each_range(n_faces, kParallelKeptFaces, [&](std::size_t b, std::size_t e) {
-        for (Index f = static_cast<Index>(b); f < static_cast<Index>(e); ++f) {
+    par::for_each_range(n_faces, kParallelKeptFaces, [&](std::size_t begin, std::size_t end) {
+        for (Index f = static_cast<Index>(begin); f < static_cast<Index>(end); ++f) {
             if (face_removed[f]) continue;
             const Index g = new_face[f];
             out.original_face[g] = f;
@@ -1272,8 +1272,9 @@ RegularisedForm regularise_on(const Triangles& mesh, std::span<const ZeroRegion>
     out.mesh = make_mesh_view(std::move(V), std::move(F), std::move(twin));
     out.tau.resize(out.mesh.n_edges());
     const auto n_edges = static_cast<std::size_t>(out.mesh.n_edges());
-    par::for_each_range(n_edges, kParallelKeptFaces, [&](std::size_t b, std::size_t e) {
-        for (std::size_t i = b; i < e; ++i) out.tau(static_cast<Index>(i)) = along_new[out.mesh.edge_halfedge[i]];
+    par::for_each_range(n_edges, kParallelKeptFaces, [&](std::size_t begin, std::size_t end) {
+        for (Index e = static_cast<Index>(begin); e < static_cast<Index>(end); ++e)
+            out.tau(e) = along_new[out.mesh.edge_halfedge[e]];
     });
 
     // What is left: failed regions, or none. Kept faces keep their images, so their flips.

@@ -256,8 +256,8 @@ ZeroSet find_zeros(const MeshView& mesh, const Eigen::VectorXcd& tau, const Zero
         forms.col(0) = tau.real();
         forms.col(1) = tau.imag();
         const auto count_on = [&](const MeshView& t, std::span<const double> edge_length, const Eigen::MatrixXd& f) {
-            const auto noise_on_t = [&] { noise = unresolved_regions(t, edge_length, f.col(0), options.weights); };
-            par::run_together(parallel, {[&] { z.saddle_order = count_saddles(t, f.col(0), f.col(1)); }, noise_on_t});
+            par::run_together(parallel, {[&] { z.saddle_order = count_saddles(t, f.col(0), f.col(1)); },
+                                         [&] { noise = unresolved_regions(t, edge_length, f.col(0), options.weights); }});
         };
         if (options.intrinsic_delaunay) {
             try {
