@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iomanip>
 #include <iostream>
 #include <new>
 #include <optional>
@@ -37,6 +38,9 @@ namespace {
 
 using namespace holoflow;
 using engine::kExitUsage;
+
+// `segment` notes on stderr when at least this share of the surface's uv collapsed.
+constexpr double kCollapsedAreaNote = 0.01;
 
 int report_error(const std::string& kind, const std::string& detail, int status) {
     std::cerr << "error: " << kind << ": " << detail << std::endl;
@@ -198,6 +202,7 @@ struct SegmentSettings {
     holoflow::Index fill_holes = 0;
     int max_working_genus = engine::SegmentOptions{}.holes.max_working_genus;
     bool keep_holes_at_failed_fans = false;
+    bool slice_tips = false;
 
     void add_to(CLI::App& command) {
         command.add_option("--mode", mode, "vertical: the paper's trajectories; layout: both families, "
@@ -214,6 +219,10 @@ struct SegmentSettings {
                          ->check(number_in(std::size_t{0}, std::size_t{1} << 30));
         command.add_option("--max-tips", max_tips, "most tips detected automatically")
             ->check(number_in(2, 64));
+        command.add_flag("--slice-tips", slice_tips,
+                         "slice tip holes on every surface, not only closed genus 0 and disks: along a limb "
+                         "of a surface with handles the form decays and its patches shrink to points "
+                         "(`collapsed_area`)");
         command.add_option("--hole-size", hole_size, "tip hole radius, fraction of sqrt(area / 4 pi)")
             ->check(number_in(0.0, 0.5));
         command.add_option("--fan-refinements", fan_refinements,
@@ -245,6 +254,7 @@ struct SegmentSettings {
         o.segment.mode = mode == "vertical" ? engine::SegmentMode::Vertical : engine::SegmentMode::Layout;
         o.segment.max_tips = max_tips;
         o.segment.hole_size = hole_size;
+        o.segment.slice_tips = slice_tips;
         o.segment.fan_refinement_rounds = fan_refinements;
         o.segment.holes.max_loop_edges = fill_holes;
         o.segment.holes.max_working_genus = max_working_genus;
@@ -257,7 +267,7 @@ struct SegmentSettings {
                 {"pinched_vertices", load.pinched_vertices}, {"zero_area_faces", load.zero_area_faces},
                 {"duplicate_faces", load.duplicate_faces}, {"seams", load.seams},
                 {"non_manifold_edges", load.non_manifold_edges},
-                {"max_tips", max_tips}, {"hole_size", hole_size}, {"fan_refinements", fan_refinements},
+                {"max_tips", max_tips}, {"hole_size", hole_size}, {"slice_tips", slice_tips}, {"fan_refinements", fan_refinements},
                 {"fill_holes", fill_holes}, {"max_working_genus", max_working_genus},
                 {"keep_holes_at_failed_fans", keep_holes_at_failed_fans}, {"max_memory_mb", memory_limit_bytes() >> 20},
                 {"version", HOLOFLOW_VERSION}};
@@ -299,6 +309,12 @@ int run_segment(const SegmentArgs& args) {
                   << ", flipped uv triangles " << report["flipped_uv_triangles"] << ", rectangle error "
                   << report["rectangle_error_max"] << "\nwrote segments.ply, patches.obj, trajectories.obj, "
                   << "domains.svg, complex.json, segmentation.json in " << folder.string() << "\n";
+    }
+    if (const double collapsed = report["collapsed_area"].get<double>(); collapsed >= kCollapsedAreaNote) {
+        std::cerr << "note: " << std::setprecision(3) << 100 * collapsed << " % of the surface maps to under "
+                  << engine::kCollapsedScale << " of the mean uv scale (protrusions, where the form decays)";
+        if (report["tips"].empty()) std::cerr << "; --slice-tips cuts holes at the tips, which keeps them";
+        std::cerr << "\n";
     }
     return 0;
 }
@@ -429,8 +445,8 @@ int main(int argc, char** argv) {
     segment->add_option("MESH", seg.path, "mesh file: .off .obj .ply .stl")->required();
     segment->add_option("-o,--output", seg.out_dir, "output folder")->required();
     seg.settings.add_to(*segment);
-    segment->add_option("--tips", seg.tips, "closed genus 0 / disks: vertex ids to slice holes at "
-                                            "(default: detected extremities)")
+    segment->add_option("--tips", seg.tips, "vertex ids to slice holes at, on any surface (default: "
+                                            "detected extremities, on closed genus 0, disks, or with --slice-tips)")
         ->delimiter(',')
         ->check(CLI::Validator(  // CLI11 reads an empty id as 0
             [](const std::string& text) { return text.empty() ? std::string("an empty vertex id") : std::string(); },

@@ -154,12 +154,12 @@ SlicedSurface slice_at_tips(const MeshView& input, const kernels::Topology& topo
             if (tips.empty()) {
                 kernels::TipOptions tip_options;
                 tip_options.max_tips = std::max(2, options.max_tips);
-                tip_options.min_tips = topology.boundary_loops == 0 ? 2 : 1;
+                tip_options.min_tips = topology.genus == 0 && topology.boundary_loops == 0 ? 2 : 1;
                 tips = kernels::find_tips(*mesh, tip_options);
             }
             kernels::SlicedMesh sliced = kernels::slice_tips(*mesh, tips, options.hole_size);
             kernels::Topology cut = kernels::compute_topology(sliced.mesh);
-            HOLOFLOW_REQUIRE(cut.components == 1 && cut.boundary_loops >= 2,
+            HOLOFLOW_REQUIRE(cut.components == 1 && (cut.genus > 0 || cut.boundary_loops >= 2),
                              "slicing the tips left " + std::to_string(cut.boundary_loops) +
                                  " boundary loop(s); a genus-0 surface needs two to carry a holomorphic 1-form");
             // Reported as input vertices; one the refinement added is none of them (-1).
@@ -222,15 +222,15 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
         clock.lap("hole_filling");
     }
     const MeshView& input = *work.input;
-    // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1).
-    if (topology.genus == 0 && topology.boundary_loops <= 1) {
+    // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1); other
+    // surfaces where asked (their limbs then keep their scale, see SegmentOptions::slice_tips).
+    if ((topology.genus == 0 && topology.boundary_loops <= 1) || work.options.slice_tips || !work.options.tips.empty()) {
         SlicedSurface sliced = slice_at_tips(input, topology, work.options, r);
         r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
         clock.lap("tip_slicing");
         choose_form(sliced.topology);
         work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &sliced.topology);
     } else {
-        HOLOFLOW_REQUIRE(work.options.tips.empty(), "tips are sliced only on closed genus-0 surfaces and disks");
         r.traced_input = work.input;
         choose_form(topology);
         work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &topology);
@@ -761,6 +761,7 @@ void cut(SegmentationWork& work) {
     std::vector<char> is_zero(r.cut.mesh.n_vertices(), 0);
     for (Index v : r.zero_vertices) is_zero[v] = 1;  // the cut keeps the traced mesh's vertex ids
     r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);
+    r.collapsed = kernels::collapsed_area(r.cut.mesh, r.patches.corner_uv, kCollapsedScale);
     clock.lap("patches");
 }
 
@@ -862,6 +863,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"form", form_name(r.conformal.form)},
         {"tips", tips_json(r.tips)},
         {"tip_refinements", r.tip_refinements},
+        {"collapsed_area", r.collapsed.fraction()},
         {"filled_holes",
          {{"holes", r.filled_holes},
           {"faces", r.filled_hole_faces},
@@ -1024,6 +1026,12 @@ nlohmann::json segmentation_report(std::span<const SegmentationResult> component
         double_covered = double_covered || part["double_covered"].get<bool>();
     }
     total["rectangle_error_max"] = rectangle_error;
+    kernels::CollapsedArea collapsed;
+    for (const SegmentationResult& r : components) {
+        collapsed.collapsed += r.collapsed.collapsed;
+        collapsed.total += r.collapsed.total;
+    }
+    total["collapsed_area"] = collapsed.fraction();
     total["conformal_distortion"] = {{"mean", faces > 0 ? distortion_sum / faces : 0.0}, {"max", distortion_max}};
     total["double_covered"] = double_covered;
     // Vertical mode chooses the form per component (planar domains keep the generic one).

@@ -779,6 +779,29 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     return p;
 }
 
+CollapsedArea collapsed_area(const MeshView& mesh, std::span<const Complex> corner_uv, double ratio) {
+    const Index nf = mesh.n_faces();
+    HOLOFLOW_REQUIRE(corner_uv.size() == 3 * static_cast<std::size_t>(nf), "uv must have three corners per face");
+    HOLOFLOW_REQUIRE(ratio > 0, "the collapse ratio must be positive");
+    std::vector<double> area(nf), uv_area(nf);
+    double total = 0, total_uv = 0;
+    for (Index f = 0; f < nf; ++f) {
+        const auto p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)), p2 = mesh.V.row(mesh.F(f, 2));
+        area[f] = 0.5 * (p1 - p0).cross(p2 - p0).norm();
+        const Complex a = corner_uv[3 * f], b = corner_uv[3 * f + 1], c = corner_uv[3 * f + 2];
+        uv_area[f] = 0.5 * std::abs(cross(b - a, c - a));
+        total += area[f];
+        total_uv += uv_area[f];
+    }
+    if (!(total_uv > 0)) return {total, total};  // the whole uv is a point
+    // scale_f < ratio * mean  <=>  uv_area_f / area_f < ratio^2 * total_uv / total
+    const double limit = ratio * ratio * total_uv / total;
+    CollapsedArea out{0, total};
+    for (Index f = 0; f < nf; ++f)
+        if (uv_area[f] < limit * area[f]) out.collapsed += area[f];
+    return out;
+}
+
 Patches repair_folded_patches(const MeshView& mesh, std::span<const char> border, Patches p) {
     HOLOFLOW_REQUIRE(static_cast<Index>(border.size()) == mesh.n_edges() &&
                          static_cast<Index>(p.face_patch.size()) == mesh.n_faces() &&

@@ -521,13 +521,36 @@ TEST(Cli, TipsOnRefinedPartsAreFileVerticesOrNull) {
     EXPECT_LT(added, report["tips"].size());
 }
 
+// femur (genus 2): a sixteenth of it, the far end of its shaft, maps to under a millionth of the
+// mean uv scale, which `segment` notes on stderr; with --slice-tips, or tips given on a surface
+// with handles (once refused), the limbs keep their scale and nothing is noted.
+TEST(Cli, CollapsedLimbsAreNotedAndTipsSliceAnySurface) {
+    test::TempDir dir;
+    const std::string femur = test::corpus("femur.off"), out = (dir.path() / "femur").string();
+    const auto plain = test::run_cli("segment '" + femur + "' -o '" + out + "' --json");
+    ASSERT_EQ(plain.status, 0) << plain.err;
+    EXPECT_GT(nlohmann::json::parse(plain.out)["collapsed_area"].get<double>(), 0.03);
+    EXPECT_NE(plain.err.find("of the surface maps to under 1e-06 of the mean uv scale"), std::string::npos) << plain.err;
+    EXPECT_NE(plain.err.find("--slice-tips"), std::string::npos) << plain.err;
+    const auto sliced = test::run_cli("segment '" + femur + "' -o '" + out + "' --json --slice-tips");
+    ASSERT_EQ(sliced.status, 0) << sliced.err;
+    const auto j = nlohmann::json::parse(sliced.out);
+    EXPECT_LT(j["collapsed_area"].get<double>(), 1e-3);
+    EXPECT_GE(j["tips"].size(), 1u);
+    EXPECT_EQ(j["working_genus"].get<int>(), 2 * 2 + static_cast<int>(j["tips"].size()) - 1);
+    EXPECT_EQ(sliced.err, "");
+    const auto given = test::run_cli("segment '" + test::corpus("eight.off") + "' -o '" + out + "' --json --tips 63,34");
+    ASSERT_EQ(given.status, 0) << given.err;
+    const auto g = nlohmann::json::parse(given.out);
+    EXPECT_EQ(g["tips"], nlohmann::json::array({63, 34}));  // its two ends
+    EXPECT_EQ(g["working_genus"], 5);
+    EXPECT_EQ(g["zero_count"], 8);
+}
+
 TEST(Cli, SegmentRefusesBadOptions) {
     test::TempDir dir;
     const std::string out = (dir.path() / "x").string();
     EXPECT_EQ(test::run_cli("segment '" + test::corpus("eight.off") + "' -o '" + out + "' --mode diagonal").status, 2);
-    const auto tips = test::run_cli("segment '" + test::corpus("eight.off") + "' -o '" + out + "' --tips 1,2");
-    EXPECT_EQ(tips.status, 3);  // tips only for genus 0
-    EXPECT_NE(tips.err.find("tips"), std::string::npos);
     const auto bad_tip = test::run_cli("segment '" + test::corpus("bull.off") + "' -o '" + out + "' --tips 1,999999999");
     EXPECT_EQ(bad_tip.status, 3) << bad_tip.err;
     for (const char* rounds : {"-1", "9", "many"}) {

@@ -73,6 +73,35 @@ Eigen::VectorXcd around_and_up(const MeshView& m, int around, double shear) {
 // A tube with a form whose period around it is real: one cylinder patch. The transversal
 // through a vertex at mid-height (an iso-u line; the form is sheared so that it meets no other
 // vertex) opens it into a disk whose uv is exactly the rectangle period x height.
+// A face collapses where its uv scale sqrt(uv area / area) is under the ratio times the mean
+// sqrt(sum uv area / sum area): half a sheet shrunk by 1e-9 is half its area; the scale of the
+// whole uv changes nothing; a uv that is one point is all collapsed.
+TEST(CollapsedArea, CountsFacesUnderTheMeanScale) {
+    const Sheet s = sheet(8, 4);
+    const Index nf = s.mesh.n_faces();
+    std::vector<Complex> uv(3 * static_cast<std::size_t>(nf));
+    for (Index f = 0; f < nf; ++f)
+        for (int k = 0; k < 3; ++k) uv[3 * f + k] = s.image[s.mesh.F(f, k)];
+    const CollapsedArea identity = collapsed_area(s.mesh, uv, 1e-6);
+    EXPECT_NEAR(identity.total, 2.0, 1e-12);
+    EXPECT_EQ(identity.collapsed, 0.0);
+    for (Index f = 0; f < nf; ++f) {
+        const double x = (s.mesh.V(s.mesh.F(f, 0), 0) + s.mesh.V(s.mesh.F(f, 1), 0) + s.mesh.V(s.mesh.F(f, 2), 0)) / 3;
+        if (x < 1)
+            for (int k = 0; k < 3; ++k) uv[3 * f + k] *= 1e-9;
+    }
+    const CollapsedArea half = collapsed_area(s.mesh, uv, 1e-6);
+    EXPECT_NEAR(half.collapsed, 1.0, 1e-12);
+    EXPECT_NEAR(half.fraction(), 0.5, 1e-12);
+    EXPECT_EQ(collapsed_area(s.mesh, uv, 1e-12).collapsed, 0.0);  // 1e-9 is over that
+    for (Complex& z : uv) z *= 1e-30;
+    EXPECT_NEAR(collapsed_area(s.mesh, uv, 1e-6).fraction(), 0.5, 1e-12);
+    std::fill(uv.begin(), uv.end(), Complex(3, 4));
+    EXPECT_EQ(collapsed_area(s.mesh, uv, 1e-6).fraction(), 1.0);
+    EXPECT_THROW(collapsed_area(s.mesh, std::span(uv).first(uv.size() - 1), 1e-6), InvalidInput);
+    EXPECT_THROW(collapsed_area(s.mesh, uv, 0), InvalidInput);
+}
+
 TEST(CylinderTransversals, TubeOpensIntoItsRectangle) {
     constexpr int kAround = 24, kAlong = 6;
     constexpr double kHeight = 2, kShear = 0.37;

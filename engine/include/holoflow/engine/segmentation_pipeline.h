@@ -29,8 +29,13 @@ enum class SegmentMode {
 struct SegmentOptions {
     ConformalOptions conformal;
     SegmentMode mode = SegmentMode::Layout;
-    //! Closed genus 0 and disks: tips to slice (input vertex ids); empty = detect automatically.
+    //! Tips to slice (input vertex ids); empty = detect automatically. Closed genus-0 surfaces
+    //! and disks always have tips sliced; other surfaces where tips are given or slice_tips.
     std::vector<Index> tips;
+    //! Slice tips on surfaces of every kind: a holomorphic form decays exponentially along a
+    //! protrusion, and a limb of a surface with handles maps to a point (collapsed_area); a hole at
+    //! its tip gives the double cover's form a period around it, which keeps its scale.
+    bool slice_tips = false;
     int max_tips = 8;           //!< automatic detection keeps at most this many
     double hole_size = 0.02;    //!< hole radius, fraction of sqrt(area / 4 pi)
     //! Where zero fans fail: the midpoint subdivision (small surfaces) and up to this many
@@ -50,17 +55,25 @@ struct SegmentOptions {
     bool stop_at_memory_limit = false;
 };
 
+//! A face whose uv scale is under this times the mean counts as collapsed (collapsed_area): in
+//! double precision a uv of unit size keeps about 30 bits for it.
+inline constexpr double kCollapsedScale = 1e-6;
+
 //! Everything the segmentation computes for one mesh (DESIGN 2.5-2.7).
 struct SegmentationResult {
     int input_genus = 0;
     //! The open or closed surface the trajectories live on: the input, or the input with tips
-    //! sliced (closed genus 0 / disks); open ones are traced on their double cover's first copy.
+    //! sliced (closed genus 0 / disks, others where SegmentOptions asks); open ones are traced on
+    //! their double cover's first copy.
     std::shared_ptr<const MeshView> traced_input;
     //! Input vertex ids sliced; -1 for a tip on a vertex that tip_refinements added.
     std::vector<Index> tips;
     //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
     //! input's vertex ids and add vertices after them, where a tip may then be found.
     int tip_refinements = 0;
+    //! Area of the traced surface, and of its part whose patch uv is under kCollapsedScale of the
+    //! mean scale (kernels::collapsed_area): protrusions where the form decayed.
+    kernels::CollapsedArea collapsed;
     //! Boundary loops filled (SegmentOptions::holes, then fill_holes_at_failed_fans) and the
     //! triangles that closed them, which traced_input holds after the faces it had (the input's,
     //! or a refinement's); loops chosen but left open (no triangulation without a repeated edge

@@ -47,6 +47,21 @@ struct Patches {
 //! \pre `border` has #E flags, tau #E values.  \throw InvalidInput.
 Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border);
 
+//! Area of a mesh and of its faces whose uv collapsed (collapsed_area).
+struct CollapsedArea {
+    double collapsed = 0, total = 0;
+    double fraction() const { return total > 0 ? collapsed / total : 0; }
+};
+
+//! \brief The mesh's area, and that of its faces that the patches' uv shrinks to under `ratio`
+//! times the mean scale. A face's scale is sqrt(|uv area| / area), the mean sqrt(sum |uv area| / sum
+//! area) over every face (each patch's uv is the form's integral: one scale for all). A
+//! holomorphic form decays exponentially along a protrusion (a limb, a long tube: by e^(-2 pi)
+//! per circumference of length on a round one); past rounding its patches there are points of
+//! the plane, while flips, rectangle error and distortion stay clean.
+//! \pre corner_uv has 3 #F values, ratio > 0.  \throw InvalidInput.
+CollapsedArea collapsed_area(const MeshView& mesh, std::span<const std::complex<double>> corner_uv, double ratio);
+
 //! \brief Gives each disk patch whose uv (the integral of the form) has flipped triangles a
 //! valid uv on the same rectangle instead. Its border loop is laid on the rectangle's sides:
 //! the corners are the border points nearest the rectangle's corners, and each side keeps its
