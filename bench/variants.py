@@ -167,6 +167,7 @@ def summary(results):
     off = {key: [] for key in totals}
     off['rectangle_error_max > 1e-3'] = []
     off['other_patches'] = []  # type other, and cylinders left in layout mode
+    off['collapsed_area >= 0.01'] = []  # limbs whose uv is under 1e-6 of the mean scale
     off['filled_holes'] = []   # not a defect: how many models had holes filled
     for r in rows:
         if r['status'] != 'ok':
@@ -195,6 +196,9 @@ def summary(results):
             other += sum(p['patch_types'].get('cylinder', 0) for p in parts)
         if other:
             off['other_patches'].append((r['model'], other))
+        collapsed = report.get('collapsed_area', 0)  # absent before it was reported
+        if collapsed >= 0.01:
+            off['collapsed_area >= 0.01'].append((r['model'], round(collapsed, 3)))
         filled = sum(p.get('filled_holes', {}).get('holes', 0) for p in parts)
         if filled:
             off['filled_holes'].append((r['model'], filled))

@@ -182,6 +182,7 @@ namespace segment_stage {
 SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptions options) {
     HOLOFLOW_REQUIRE(input_ptr != nullptr, "no mesh");
     SegmentationWork work;
+    work.given = input_ptr;
     work.input = std::move(input_ptr);
     work.options = std::move(options);
     SegmentationResult& r = work.result;
@@ -681,6 +682,77 @@ void trace(SegmentationWork& work) {
     clock.lap("tracing");
 }
 
+namespace {
+
+// The vertex of `mesh` at `point`, else the nearest one; ties to the smaller id.
+Index vertex_at(const MeshView& mesh, const Eigen::RowVector3d& point) {
+    Index best = 0;
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (Index v = 0; v < mesh.n_vertices(); ++v)
+        if (const double d = (mesh.V.row(v) - point).squaredNorm(); d < best_distance) best = v, best_distance = d;
+    return best;
+}
+
+Index unfinished_trajectories(const SegmentationResult& r) {
+    return std::count_if(r.trajectories.begin(), r.trajectories.end(),
+                         [](const Trajectory& t) { return t.end == Trajectory::End::LengthCap; });
+}
+
+// SegmentOptions::tips_where_collapsed.
+void add_tips_where_collapsed(SegmentationWork& work) {
+    constexpr int kRounds = 2;
+    constexpr double kLeastShare = 0.01;  // of the surface's area, collapsed in one limb
+    if (!work.options.tips_where_collapsed || !work.options.tips.empty()) return;  // given tips stay
+    for (int round = 0; round < kRounds; ++round) {
+        const SegmentationResult& r = work.result;
+        // Tips on vertices a refinement added (-1) could not be given again.
+        if (r.tips.empty() || r.tip_refinements > 0 || r.collapsed.fraction() < kLeastShare) return;
+        std::vector<Index> tips = r.tips;
+        const std::vector<char> collapsed = kernels::collapsed_faces(r.cut.mesh, r.patches.corner_uv, kCollapsedScale);
+        for (Index v : kernels::collapsed_limb_tips(r.cut.mesh, collapsed, kLeastShare)) {
+            if (static_cast<int>(tips.size()) >= work.options.max_tips) break;
+            // The cut mesh keeps the positions of the given mesh's vertices it has.
+            const Index tip = vertex_at(*work.given, r.cut.mesh.V.row(v));
+            if (std::find(tips.begin(), tips.end(), tip) == tips.end()) tips.push_back(tip);
+        }
+        if (tips.size() == r.tips.size()) return;
+        SegmentOptions options = work.options;
+        options.tips = tips;
+        options.tips_where_collapsed = false;
+        SegmentationWork next;
+        try {
+            next = segment_stage::prepare(work.given, options);
+            conformal_stage::run_after_prepare(next.conformal, nullptr);
+            segment_stage::zeros(next);
+            segment_stage::fans(next);
+            segment_stage::trace(next);
+            segment_stage::cut(next);
+        } catch (const InvalidInput&) {  // a hole there cuts the mesh or wraps a handle
+            return;
+        } catch (const SolverFailure&) {
+            return;
+        } catch (const ResourceLimit&) {
+            ++work.result.tries_over_memory_limit;
+            if (options.stop_at_memory_limit) throw;
+            return;
+        }
+        SegmentationResult& more = next.result;
+        const bool better = more.collapsed.fraction() < r.collapsed.fraction() &&
+                            flipped_uv_triangles(more.patches) <= flipped_uv_triangles(r.patches) &&
+                            unfinished_trajectories(more) <= unfinished_trajectories(r) &&
+                            more.regular.failed_weight <= r.regular.failed_weight;
+        if (!better) {
+            add_stage_times(work.result.timings_ms, more.timings_ms);
+            return;
+        }
+        add_stage_times(more.timings_ms, r.timings_ms);
+        more.tips_added_where_collapsed = r.tips_added_where_collapsed + static_cast<int>(tips.size() - r.tips.size());
+        work.result = std::move(more);
+    }
+}
+
+}  // namespace
+
 void cut(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
@@ -763,6 +835,7 @@ void cut(SegmentationWork& work) {
     r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);
     r.collapsed = kernels::collapsed_area(r.cut.mesh, r.patches.corner_uv, kCollapsedScale);
     clock.lap("patches");
+    add_tips_where_collapsed(work);
 }
 
 }  // namespace segment_stage
@@ -864,6 +937,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"tips", tips_json(r.tips)},
         {"tip_refinements", r.tip_refinements},
         {"collapsed_area", r.collapsed.fraction()},
+        {"tips_added_where_collapsed", r.tips_added_where_collapsed},
         {"filled_holes",
          {{"holes", r.filled_holes},
           {"faces", r.filled_hole_faces},

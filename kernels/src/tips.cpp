@@ -264,6 +264,75 @@ std::vector<double> edge_path_distances(const MeshView& mesh, std::span<const In
     return Dijkstra(g).full(sources);
 }
 
+std::vector<Index> collapsed_limb_tips(const MeshView& mesh, std::span<const char> collapsed, double min_share) {
+    const Index nf = mesh.n_faces(), nv = mesh.n_vertices();
+    HOLOFLOW_REQUIRE(static_cast<Index>(collapsed.size()) == nf, "one collapsed flag per face is needed");
+    HOLOFLOW_REQUIRE(min_share >= 0 && min_share <= 1, "min_share must be in [0, 1]");
+    // Regions: collapsed faces joined across edges, numbered by their smallest face.
+    std::vector<Index> region(nf, -1);
+    std::vector<double> region_area;
+    double total = 0;
+    for (Index f = 0; f < nf; ++f) total += face_area(mesh, f);
+    for (Index seed = 0; seed < nf; ++seed) {
+        if (!collapsed[seed] || region[seed] >= 0) continue;
+        const Index id = static_cast<Index>(region_area.size());
+        region_area.push_back(0);
+        std::vector<Index> stack{seed};
+        region[seed] = id;
+        while (!stack.empty()) {
+            const Index f = stack.back();
+            stack.pop_back();
+            region_area[id] += face_area(mesh, f);
+            for (int k = 0; k < 3; ++k) {
+                const Index t = mesh.twin[3 * f + k];
+                if (t == kNoHalfedge) continue;
+                const Index g = MeshView::face(t);
+                if (collapsed[g] && region[g] < 0) {
+                    region[g] = id;
+                    stack.push_back(g);
+                }
+            }
+        }
+    }
+    if (region_area.empty()) return {};
+    // Distances from the faces that kept their scale and from the boundary.
+    std::vector<char> kept(nv, 0);
+    for (Index f = 0; f < nf; ++f)
+        if (!collapsed[f])
+            for (int k = 0; k < 3; ++k) kept[mesh.F(f, k)] = 1;
+    const std::vector<char> on_boundary = boundary_vertex_flags(mesh);
+    const auto sources = [nv](const std::vector<char>& flags) {
+        std::vector<Index> out;
+        for (Index v = 0; v < nv; ++v)
+            if (flags[v]) out.push_back(v);
+        return out;
+    };
+    const VertexGraph g = build_graph(mesh);
+    const auto distances = [&](const std::vector<char>& flags) {
+        const std::vector<Index> from = sources(flags);
+        return from.empty() ? std::vector<double>(nv, kInf) : Dijkstra(g).full(from);
+    };
+    const std::vector<double> from_kept = distances(kept), from_boundary = distances(on_boundary);
+    std::vector<char> eligible(nv, 1);
+    for (Index v = 0; v < nv; ++v)
+        if (on_boundary[v]) {
+            eligible[v] = 0;
+            for (Index k = g.start[v]; k < g.start[v + 1]; ++k) eligible[g.neighbor[k]] = 0;
+        }
+    std::vector<Index> best(region_area.size(), -1);
+    std::vector<double> best_depth(region_area.size(), 0);
+    for (Index v = 0; v < nv; ++v) {
+        if (kept[v] || !eligible[v] || mesh.vertex_halfedge[v] == kNoHalfedge) continue;
+        const double depth = std::min(from_kept[v], from_boundary[v]);
+        const Index id = region[MeshView::face(mesh.vertex_halfedge[v])];
+        if (std::isfinite(depth) && (best[id] < 0 || depth > best_depth[id])) best[id] = v, best_depth[id] = depth;
+    }
+    std::vector<Index> tips;
+    for (std::size_t id = 0; id < region_area.size(); ++id)
+        if (best[id] >= 0 && region_area[id] >= min_share * total) tips.push_back(best[id]);
+    return tips;
+}
+
 TipMeasure compute_tip_measure(const MeshView& mesh, const TipOptions& options) {
     HOLOFLOW_REQUIRE(options.samples >= 1, "samples must be at least 1");
     const VertexGraph g = build_graph(mesh);

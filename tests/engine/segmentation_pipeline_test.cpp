@@ -675,6 +675,32 @@ TEST(Segmentation, SlicedTipsKeepTheLimbsOfASurfaceWithHandles) {
     expect_every_fan_placed(torus);
 }
 
+// A strip 10 x 1 is a disk whose one detected tip (flat distance to the boundary: the fallback)
+// leaves its far part beyond the reach of the form: 46 % of it maps to under a millionth of the
+// mean scale. The deepest point of that part becomes a second tip and the strip is segmented
+// again: nothing collapses.
+TEST(Segmentation, CollapsedLimbsGetTipsOfTheirOwn) {
+    MeshView strip = shapes::flat_grid(120, 12);
+    for (Index v = 0; v < strip.n_vertices(); ++v) strip.V(v, 0) *= 10;
+    SegmentOptions detected_only;
+    detected_only.tips_where_collapsed = false;
+    const SegmentationResult plain = segment(strip, detected_only);
+    ASSERT_EQ(plain.tips.size(), 1u);
+    EXPECT_GT(plain.collapsed.fraction(), 0.3);
+    const SegmentationResult r = segment(strip);
+    ASSERT_EQ(r.tips.size(), 2u);
+    EXPECT_EQ(r.tips[0], plain.tips[0]);
+    EXPECT_EQ(r.tips_added_where_collapsed, 1);
+    EXPECT_LT(r.collapsed.fraction(), 1e-3);
+    EXPECT_EQ(r.conformal.basis.genus, 2);
+    expect_every_fan_placed(r);
+    EXPECT_EQ(unfinished(r), 0);
+    // At most max_tips in all.
+    SegmentOptions one;
+    one.max_tips = 1;
+    EXPECT_EQ(segment(strip, one).tips.size(), 1u);
+}
+
 TEST(Segmentation, GenusZeroIsSlicedAtItsTips) {
     const SegmentationResult r = segment(*test::corpus_mesh("bull"));
     EXPECT_GE(r.tips.size(), 2u);

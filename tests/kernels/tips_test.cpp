@@ -254,6 +254,48 @@ TEST(FindTips, RejectsBadOptionsAndDisconnectedMeshes) {
 // ---------------------------------------------------------------------------------------------
 // Slicing
 
+// Per collapsed region, the vertex deepest in it: farthest along edge paths from the faces that
+// kept their scale and from the boundary, two rings from the boundary at least. On an icosphere
+// with two collapsed caps, each cap's vertex farthest from the rest; on a strip 10 x 1 whose far
+// part collapsed, a vertex of its middle line, as far from the kept part as from the sides.
+TEST(CollapsedLimbTips, DeepestVertexOfEachCollapsedRegion) {
+    const MeshView sphere = shapes::icosphere(3);
+    std::vector<char> collapsed(sphere.n_faces(), 0);
+    for (Index f = 0; f < sphere.n_faces(); ++f) {
+        const double z = (sphere.V(sphere.F(f, 0), 2) + sphere.V(sphere.F(f, 1), 2) + sphere.V(sphere.F(f, 2), 2)) / 3;
+        collapsed[f] = std::abs(z) > 0.6;
+    }
+    std::vector<Index> kept;
+    for (Index f = 0; f < sphere.n_faces(); ++f)
+        if (!collapsed[f])
+            for (int k = 0; k < 3; ++k) kept.push_back(sphere.F(f, k));
+    const std::vector<double> depth = edge_path_distances(sphere, kept);
+    const std::vector<Index> caps = collapsed_limb_tips(sphere, collapsed, 0.01);
+    ASSERT_EQ(caps.size(), 2u);
+    for (Index tip : caps) {
+        const bool north = sphere.V(tip, 2) > 0;
+        for (Index v = 0; v < sphere.n_vertices(); ++v)
+            if ((sphere.V(v, 2) > 0) == north) EXPECT_LE(depth[v], depth[tip]) << v;
+    }
+    EXPECT_TRUE(collapsed_limb_tips(sphere, collapsed, 0.5).empty());  // each cap is a tenth
+    EXPECT_TRUE(collapsed_limb_tips(sphere, std::vector<char>(sphere.n_faces(), 0), 0).empty());
+
+    MeshView strip = shapes::flat_grid(120, 12);
+    for (Index v = 0; v < strip.n_vertices(); ++v) strip.V(v, 0) *= 10;
+    std::vector<char> far(strip.n_faces(), 0);
+    for (Index f = 0; f < strip.n_faces(); ++f)
+        far[f] = strip.V(strip.F(f, 0), 0) + strip.V(strip.F(f, 1), 0) + strip.V(strip.F(f, 2), 0) > 3 * 6;
+    const std::vector<Index> end = collapsed_limb_tips(strip, far, 0.01);
+    ASSERT_EQ(end.size(), 1u);
+    EXPECT_NEAR(strip.V(end[0], 1), 0.5, 1e-12);
+    EXPECT_GT(strip.V(end[0], 0), 6.4);
+    // Two rows of faces have no vertex two rings from the boundary: no tip.
+    MeshView thin = shapes::flat_grid(40, 2);
+    EXPECT_TRUE(collapsed_limb_tips(thin, std::vector<char>(thin.n_faces(), 1), 0).empty());
+    EXPECT_THROW(collapsed_limb_tips(thin, std::vector<char>(3, 1), 0), InvalidInput);
+    EXPECT_THROW(collapsed_limb_tips(thin, std::vector<char>(thin.n_faces(), 1), 2), InvalidInput);
+}
+
 TEST(SliceTips, IcosphereGetsOneSmallHolePerTip) {
     const MeshView sphere = shapes::icosphere(4);
     const std::vector<Eigen::RowVector3d> axes{{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},

@@ -36,6 +36,11 @@ struct SegmentOptions {
     //! protrusion, and a limb of a surface with handles maps to a point (collapsed_area); a hole at
     //! its tip gives the double cover's form a period around it, which keeps its scale.
     bool slice_tips = false;
+    //! Where tips were detected and a limb still collapses (collapsed_area at least 1 %: a
+    //! protrusion the detection missed, a strip of a disk beyond its one tip), up to two rounds
+    //! add a tip at each such limb's deepest point (kernels::collapsed_limb_tips) and segment
+    //! again, kept where less collapses and nothing else gets worse. At most max_tips in all.
+    bool tips_where_collapsed = true;
     int max_tips = 8;           //!< automatic detection keeps at most this many
     double hole_size = 0.02;    //!< hole radius, fraction of sqrt(area / 4 pi)
     //! Where zero fans fail: the midpoint subdivision (small surfaces) and up to this many
@@ -74,6 +79,8 @@ struct SegmentationResult {
     //! Area of the traced surface, and of its part whose patch uv is under kCollapsedScale of the
     //! mean scale (kernels::collapsed_area): protrusions where the form decayed.
     kernels::CollapsedArea collapsed;
+    //! Of tips, those SegmentOptions::tips_where_collapsed added.
+    int tips_added_where_collapsed = 0;
     //! Boundary loops filled (SegmentOptions::holes, then fill_holes_at_failed_fans) and the
     //! triangles that closed them, which traced_input holds after the faces it had (the input's,
     //! or a refinement's); loops chosen but left open (no triangulation without a repeated edge
@@ -118,7 +125,8 @@ struct SegmentationResult {
 //! One model between the segmentation stages (as ConformalWork for the conformal ones, which run
 //! between prepare and zeros on `conformal`).
 struct SegmentationWork {
-    std::shared_ptr<const MeshView> input;
+    std::shared_ptr<const MeshView> given;  //!< the mesh as given to prepare
+    std::shared_ptr<const MeshView> input;  //!< it with small holes filled (SegmentOptions::holes)
     SegmentOptions options;
     SegmentationResult result;
     ConformalWork conformal;

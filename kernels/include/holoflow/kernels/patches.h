@@ -62,6 +62,10 @@ struct CollapsedArea {
 //! \pre corner_uv has 3 #F values, ratio > 0.  \throw InvalidInput.
 CollapsedArea collapsed_area(const MeshView& mesh, std::span<const std::complex<double>> corner_uv, double ratio);
 
+//! Per face, 1 where collapsed_area counts it (every face where the whole uv is one point).
+//! \pre as collapsed_area.  \throw InvalidInput.
+std::vector<char> collapsed_faces(const MeshView& mesh, std::span<const std::complex<double>> corner_uv, double ratio);
+
 //! \brief Gives each disk patch whose uv (the integral of the form) has flipped triangles a
 //! valid uv on the same rectangle instead. Its border loop is laid on the rectangle's sides:
 //! the corners are the border points nearest the rectangle's corners, and each side keeps its

@@ -68,6 +68,15 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options = {});
 //! detect_tips(mesh, options).tips.
 std::vector<Index> find_tips(const MeshView& mesh, const TipOptions& options = {});
 
+//! \brief A tip for each limb whose map collapsed: per region of `collapsed` faces (joined
+//! across edges) holding at least `min_share` of the mesh's area, its vertex farthest along edge
+//! paths from both the faces that did not collapse and the boundary (holes sliced already are
+//! boundary), among the vertices two rings from the boundary at least (a hole takes its tip's
+//! one-ring); ties to the smaller id. Regions in order of their smallest face; one without such
+//! a vertex gives none.
+//! \pre collapsed has #F flags, min_share in [0, 1].  \throw InvalidInput.
+std::vector<Index> collapsed_limb_tips(const MeshView& mesh, std::span<const char> collapsed, double min_share);
+
 struct SlicedMesh {
     MeshView mesh;                       //!< open, same orientation, original vertex positions
     std::vector<Index> original_vertex;  //!< per vertex of `mesh` -> input vertex
