@@ -684,6 +684,18 @@ void trace(SegmentationWork& work) {
 
 namespace {
 
+// Every stage in order (segment(); add_tips_where_collapsed segments again).
+SegmentationResult all_stages(std::shared_ptr<const MeshView> input, const SegmentOptions& options,
+                              FactorizationCache* cache) {
+    SegmentationWork work = prepare(std::move(input), options);
+    conformal_stage::run_after_prepare(work.conformal, cache);
+    zeros(work);
+    fans(work);
+    trace(work);
+    cut(work);
+    return std::move(work.result);
+}
+
 // The vertex of `mesh` at `point`, else the nearest one; ties to the smaller id.
 Index vertex_at(const MeshView& mesh, const Eigen::RowVector3d& point) {
     Index best = 0;
@@ -719,14 +731,9 @@ void add_tips_where_collapsed(SegmentationWork& work) {
         SegmentOptions options = work.options;
         options.tips = tips;
         options.tips_where_collapsed = false;
-        SegmentationWork next;
+        SegmentationResult more;
         try {
-            next = segment_stage::prepare(work.given, options);
-            conformal_stage::run_after_prepare(next.conformal, nullptr);
-            segment_stage::zeros(next);
-            segment_stage::fans(next);
-            segment_stage::trace(next);
-            segment_stage::cut(next);
+            more = all_stages(work.given, options, nullptr);  // a new pattern: no cache
         } catch (const InvalidInput&) {  // a hole there cuts the mesh or wraps a handle
             return;
         } catch (const SolverFailure&) {
@@ -736,7 +743,6 @@ void add_tips_where_collapsed(SegmentationWork& work) {
             if (options.stop_at_memory_limit) throw;
             return;
         }
-        SegmentationResult& more = next.result;
         const bool better = more.collapsed.fraction() < r.collapsed.fraction() &&
                             flipped_uv_triangles(more.patches) <= flipped_uv_triangles(r.patches) &&
                             unfinished_trajectories(more) <= unfinished_trajectories(r) &&
@@ -842,14 +848,8 @@ void cut(SegmentationWork& work) {
 
 SegmentationResult segment(const MeshView& input, const SegmentOptions& options, FactorizationCache* cache) {
     // The caller owns the mesh: a non-owning pointer to it.
-    SegmentationWork work = segment_stage::prepare(
-        std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input), options);
-    conformal_stage::run_after_prepare(work.conformal, cache);
-    segment_stage::zeros(work);
-    segment_stage::fans(work);
-    segment_stage::trace(work);
-    segment_stage::cut(work);
-    return std::move(work.result);
+    return segment_stage::all_stages(std::shared_ptr<const MeshView>(std::shared_ptr<const MeshView>{}, &input),
+                                     options, cache);
 }
 
 namespace {

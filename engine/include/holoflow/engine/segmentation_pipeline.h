@@ -135,7 +135,8 @@ struct SegmentationWork {
 
 //! The segmentation stages in order (DESIGN 2.1, 2.5-2.7); each throws as segment() does.
 namespace segment_stage {
-//! Topology checks, tip slicing (closed genus 0 and disks), then conformal_stage::prepare.
+//! Topology checks, tip slicing (closed genus 0 and disks, others where asked), then
+//! conformal_stage::prepare.
 SegmentationWork prepare(std::shared_ptr<const MeshView> input, SegmentOptions options);
 //! Takes the finished conformal result; zeros and their clusters.
 void zeros(SegmentationWork& work);
@@ -144,7 +145,8 @@ void fans(SegmentationWork& work);
 //! Critical trajectories from every zero (both families with the motorcycle rule in layout mode).
 void trace(SegmentationWork& work);
 //! Cut along the trajectories (layout mode: transversals open cylinders and split patches at
-//! concave corners), patches with their maps, the flow complex.
+//! concave corners), patches with their maps, the flow complex; then, where limbs collapsed,
+//! every stage again with tips added there (SegmentOptions::tips_where_collapsed).
 void cut(SegmentationWork& work);
 }  // namespace segment_stage
 
