@@ -186,6 +186,7 @@ nlohmann::json outcome_json(const ModelOutcome& o) {
         {"working_genus", o.working_genus},
         {"zeros", o.zeros},
         {"patches", o.patches},
+        {"collapsed_area", o.collapsed_area >= 0 ? nlohmann::json(o.collapsed_area) : nlohmann::json(nullptr)},
         {"timings_ms", timings_report(o.timings_ms)},
     };
     j["error"] = o.status.ok() ? nlohmann::json(nullptr)
@@ -255,6 +256,7 @@ std::optional<ModelOutcome> finished_model(const ModelTask& task, const nlohmann
         o.working_genus = j.at("working_genus").get<int>();
         o.zeros = j.at("zeros").get<std::int64_t>();
         o.patches = j.at("patches").get<std::int64_t>();
+        o.collapsed_area = j.at("collapsed_area").get<double>();  // absent before 2026-12-08: recomputed
         // Back in key order: the summary looks stages up by name, so order does not matter.
         for (const auto& [stage, ms] : j.at("timings_ms").items())
             if (stage != "total") o.timings_ms.emplace_back(stage, ms.get<double>());
@@ -274,14 +276,15 @@ void write_batch_summary(const fs::path& out_root, const std::vector<ModelOutcom
         for (const auto& [stage, ms] : o.timings_ms)
             if (std::find(stages.begin(), stages.end(), stage) == stages.end()) stages.push_back(stage);
     std::ostringstream csv;
-    csv << "model,file,status,error_kind,error_stage,error,vertices,faces,genus,working_genus,zeros,patches";
+    csv << "model,file,status,error_kind,error_stage,error,vertices,faces,genus,working_genus,zeros,patches,collapsed_area";
     for (const std::string& s : stages) csv << ",ms_" << s;
     csv << ",ms_total\n";
     for (const ModelOutcome& o : outcomes) {
         csv << csv_cell(o.task.name) << ',' << csv_cell(o.task.path) << ',' << (o.status.ok() ? "ok" : "failed")
             << ',' << csv_cell(o.status.kind) << ',' << csv_cell(o.status.stage) << ','
             << csv_cell(o.status.message) << ',' << o.vertices << ',' << o.faces << ',' << o.genus << ','
-            << o.working_genus << ',' << o.zeros << ',' << o.patches;
+            << o.working_genus << ',' << o.zeros << ',' << o.patches << ',';
+        if (o.collapsed_area >= 0) csv << o.collapsed_area;
         double total = 0;
         for (const std::string& s : stages) {
             csv << ',';

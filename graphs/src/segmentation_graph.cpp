@@ -195,6 +195,7 @@ struct Stages {
         o.working_genus = s.run.report["working_genus"];
         o.zeros = s.run.report["zero_count"];
         o.patches = s.run.report["patch_count"];
+        o.collapsed_area = s.run.report["collapsed_area"];
         const engine::StageTimes times = engine::summed_times(results);
         o.timings_ms.insert(o.timings_ms.end(), times.begin(), times.end());
         s.run.report["file"] = s.task().path;

@@ -135,6 +135,7 @@ TEST(ModelResult, RoundTripsAndChecksSettings) {
     o.genus = o.working_genus = 2;
     o.zeros = 2;
     o.patches = 12;
+    o.collapsed_area = 0.0625;
     o.timings_ms = {{"load", 1.5}, {"analyse", 0.25}, {"write", 2}};
     const nlohmann::json settings = {{"mode", "layout"}};
     write_model_result(o, settings);
@@ -163,6 +164,7 @@ TEST(BatchSummary, CsvHasOneRowPerModelAndQuotesErrors) {
     std::vector<ModelOutcome> outcomes(2);
     outcomes[0].task = tasks[0];
     outcomes[0].timings_ms = {{"load", 1}, {"zeros", 2}};
+    outcomes[0].collapsed_area = 0.5;
     outcomes[1].task = tasks[1];
     outcomes[1].status = Status::failure("parse_error", "read", "line 3: bad token \"x\", expected a number", 16);
     write_batch_summary(dir.path(), outcomes);
@@ -171,6 +173,8 @@ TEST(BatchSummary, CsvHasOneRowPerModelAndQuotesErrors) {
     EXPECT_EQ(summary[0]["status"], "ok");
     EXPECT_EQ(summary[1]["error"]["kind"], "parse_error");
     EXPECT_DOUBLE_EQ(summary[0]["timings_ms"]["total"].get<double>(), 3.0);
+    EXPECT_EQ(summary[0]["collapsed_area"], 0.5);
+    EXPECT_TRUE(summary[1]["collapsed_area"].is_null()) << "a failed model has none";
     std::istringstream csv(slurp(dir.path() / "summary.csv"));
     std::string header, row0, row1, extra;
     std::getline(csv, header);
@@ -178,6 +182,8 @@ TEST(BatchSummary, CsvHasOneRowPerModelAndQuotesErrors) {
     std::getline(csv, row1);
     EXPECT_FALSE(std::getline(csv, extra));
     EXPECT_NE(header.find("ms_zeros"), std::string::npos);
+    EXPECT_NE(header.find(",patches,collapsed_area,"), std::string::npos) << header;
+    EXPECT_NE(row0.find(",0.5,"), std::string::npos) << row0;
     EXPECT_NE(row1.find("\"line 3: bad token \"\"x\"\", expected a number\""), std::string::npos) << row1;
 }
 

@@ -32,6 +32,7 @@ struct ModelOutcome {
     std::size_t vertices = 0, faces = 0;  //!< of the mesh as loaded (0 if loading failed)
     int genus = -1, working_genus = -1;
     std::int64_t zeros = -1, patches = -1;
+    double collapsed_area = -1;           //!< segmentation.json's collapsed_area; -1 if not reached
     StageTimes timings_ms;                //!< load, the pipeline stages, write
 };
 
