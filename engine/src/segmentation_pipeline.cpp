@@ -225,12 +225,23 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
     const MeshView& input = *work.input;
     // Closed genus 0 and disks: slice small holes at the tips first (DESIGN 2.1); other
     // surfaces where asked (their limbs then keep their scale, see SegmentOptions::slice_tips).
-    if ((topology.genus == 0 && topology.boundary_loops <= 1) || work.options.slice_tips || !work.options.tips.empty()) {
-        SlicedSurface sliced = slice_at_tips(input, topology, work.options, r);
-        r.traced_input = std::make_shared<const MeshView>(std::move(sliced.mesh));
+    // There a surface whose detected tips cannot be sliced (every hole would wrap a handle or
+    // cut it) is segmented as it is.
+    const bool needs_tips = topology.genus == 0 && topology.boundary_loops <= 1;
+    std::optional<SlicedSurface> sliced;
+    if (needs_tips || !work.options.tips.empty()) {
+        sliced = slice_at_tips(input, topology, work.options, r);
+    } else if (work.options.slice_tips) {
+        try {
+            sliced = slice_at_tips(input, topology, work.options, r);
+        } catch (const InvalidInput&) {  // r.tips stay empty
+        }
+    }
+    if (sliced) {
+        r.traced_input = std::make_shared<const MeshView>(std::move(sliced->mesh));
         clock.lap("tip_slicing");
-        choose_form(sliced.topology);
-        work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &sliced.topology);
+        choose_form(sliced->topology);
+        work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &sliced->topology);
     } else {
         r.traced_input = work.input;
         choose_form(topology);

@@ -673,6 +673,18 @@ TEST(Segmentation, SlicedTipsKeepTheLimbsOfASurfaceWithHandles) {
     EXPECT_EQ(torus.conformal.basis.genus, 2);
     EXPECT_EQ(torus.collapsed.fraction(), 0.0);
     expect_every_fan_placed(torus);
+    // Where no tip can be sliced (holes that would cover the whole surface; a torus of 52.8k
+    // faces is not refined to try again), slicing is given up and the surface segmented as it
+    // is; given tips are refused instead.
+    SegmentOptions wide = slice;
+    wide.hole_size = 10;
+    const MeshView fine = shapes::torus(2, 1, 240, 110);
+    const SegmentationResult whole = segment(fine, wide);
+    EXPECT_TRUE(whole.tips.empty());
+    EXPECT_EQ(whole.conformal.basis.genus, 1);
+    EXPECT_EQ(whole.patches.info.size(), 1u);
+    wide.tips = {0};
+    EXPECT_THROW(segment(fine, wide), InvalidInput);
 }
 
 // A strip 10 x 1 is a disk whose one detected tip (flat distance to the boundary: the fallback)
