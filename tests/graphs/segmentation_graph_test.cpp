@@ -53,7 +53,8 @@ std::vector<std::string> mixed_collection(const TempDir& dir) {
             (dir.path() / "missing.off").string(),
             corpus("bull.off"),
             corpus("knot2.off"),  // two knotted tori: segmented per component
-            corpus("oblong.off")};  // its failed fan gets room on the bisected surface
+            corpus("oblong.off"),  // its failed fan gets room on the bisected surface
+            corpus("ALSTOM_TEST4.off")};  // six CAD disks; one strip collapsed and gets a tip
 }
 
 class ThreadSweep : public ::testing::TestWithParam<int> {};
