@@ -128,6 +128,18 @@ std::vector<char> boundary_vertex_flags(const MeshView& mesh) {
     return on;
 }
 
+// Per vertex, 1 where neither it nor a neighbour is on the boundary: a hole takes its tip's
+// one-ring, so a tip must be two rings from the boundary.
+std::vector<char> two_rings_from_boundary(const VertexGraph& g, const std::vector<char>& on_boundary) {
+    std::vector<char> eligible(on_boundary.size(), 1);
+    for (Index v = 0; v < g.n_vertices(); ++v)
+        if (on_boundary[v]) {
+            eligible[v] = 0;
+            for (Index k = g.start[v]; k < g.start[v + 1]; ++k) eligible[g.neighbor[k]] = 0;
+        }
+    return eligible;
+}
+
 double face_area(const MeshView& mesh, Index f) {
     const Eigen::RowVector3d a = mesh.V.row(mesh.F(f, 0)), b = mesh.V.row(mesh.F(f, 1)),
                              c = mesh.V.row(mesh.F(f, 2));
@@ -313,12 +325,7 @@ std::vector<Index> collapsed_limb_tips(const MeshView& mesh, std::span<const cha
         return from.empty() ? std::vector<double>(nv, kInf) : Dijkstra(g).full(from);
     };
     const std::vector<double> from_kept = distances(kept), from_boundary = distances(on_boundary);
-    std::vector<char> eligible(nv, 1);
-    for (Index v = 0; v < nv; ++v)
-        if (on_boundary[v]) {
-            eligible[v] = 0;
-            for (Index k = g.start[v]; k < g.start[v + 1]; ++k) eligible[g.neighbor[k]] = 0;
-        }
+    const std::vector<char> eligible = two_rings_from_boundary(g, on_boundary);
     std::vector<Index> best(region_area.size(), -1);
     std::vector<double> best_depth(region_area.size(), 0);
     for (Index v = 0; v < nv; ++v) {
@@ -353,12 +360,7 @@ TipDetection detect_tips(const MeshView& mesh, const TipOptions& options) {
     // A hole always takes its tip's one-ring, so a tip next to the boundary could never be
     // sliced: tips are vertices two rings from the boundary at least. On a coarse or thin disk
     // the measure's maximum can sit next to the boundary (a needle's lies by its short side).
-    std::vector<char> eligible(on_boundary.size(), 1);
-    for (Index v = 0; v < g.n_vertices(); ++v)
-        if (on_boundary[v]) {
-            eligible[v] = 0;
-            for (Index k = g.start[v]; k < g.start[v + 1]; ++k) eligible[g.neighbor[k]] = 0;
-        }
+    const std::vector<char> eligible = two_rings_from_boundary(g, on_boundary);
     // The highest eligible vertex of x; -1 when none is eligible.
     auto eligible_argmax = [&](const std::vector<double>& x) {
         Index best = -1;
