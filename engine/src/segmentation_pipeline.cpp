@@ -728,8 +728,10 @@ void add_tips_where_collapsed(SegmentationWork& work) {
     if (!work.options.tips_where_collapsed || !work.options.tips.empty()) return;  // given tips stay
     for (int round = 0; round < kRounds; ++round) {
         const SegmentationResult& r = work.result;
-        // Tips on vertices a refinement added (-1) could not be given again.
-        if (r.tips.empty() || r.tip_refinements > 0 || r.collapsed.fraction() < kLeastShare) return;
+        // A tip on a vertex that a refinement added (-1) could not be given again.
+        if (r.tips.empty() || std::find(r.tips.begin(), r.tips.end(), -1) != r.tips.end() ||
+            r.collapsed.fraction() < kLeastShare)
+            return;
         std::vector<Index> tips = r.tips;
         const std::vector<char> collapsed = kernels::collapsed_faces(r.cut.mesh, r.patches.corner_uv, kCollapsedScale);
         for (Index v : kernels::collapsed_limb_tips(r.cut.mesh, collapsed, kLeastShare)) {
