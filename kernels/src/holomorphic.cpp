@@ -144,10 +144,11 @@ Eigen::VectorXcd rectangle_form(const Eigen::VectorXcd& tau, std::complex<double
 
 namespace holoflow::kernels {
 
-Eigen::VectorXd generic_form_coefficients(Eigen::Index n) {
+Eigen::VectorXd generic_form_coefficients(Eigen::Index n, int phase) {
+    HOLOFLOW_REQUIRE(phase >= 1, "the phase of the generic coefficients starts at 1");
     // Golden-angle phases: distinct, nonzero, and free of small rational relations.
     Eigen::VectorXd d(n);
-    for (Eigen::Index i = 0; i < n; ++i) d(i) = 1.5 + std::cos(2.399963229728653 * static_cast<double>(i + 1));
+    for (Eigen::Index i = 0; i < n; ++i) d(i) = 1.5 + std::cos(2.399963229728653 * static_cast<double>(i + phase));
     return d;
 }
 
@@ -188,8 +189,8 @@ Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, const 
     return plus * x;
 }
 
-Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution) {
-    return even_form_coefficients(involution, generic_form_coefficients(involution.rows()));
+Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, int phase) {
+    return even_form_coefficients(involution, generic_form_coefficients(involution.rows(), phase));
 }
 
 Eigen::VectorXd even_integer_form_coefficients(const Eigen::MatrixXi& involution) {

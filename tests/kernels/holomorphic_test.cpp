@@ -81,6 +81,17 @@ TEST(GenericCoefficients, DistinctAndNonzero) {
     EXPECT_GT(d.cwiseAbs().minCoeff(), 0.1);
 }
 
+// Phase k is phase 1 shifted by k - 1 places: each phase as generic as the first.
+TEST(GenericCoefficients, PhasesAreShiftsOfTheFirst) {
+    const Eigen::VectorXd first = generic_form_coefficients(40);
+    for (int phase = 2; phase <= 8; ++phase) {
+        const Eigen::VectorXd d = generic_form_coefficients(30, phase);
+        EXPECT_EQ(d, first.segment(phase - 1, 30)) << phase;
+    }
+    EXPECT_EQ(generic_form_coefficients(30, 1), first.head(30));
+    EXPECT_THROW(generic_form_coefficients(30, 0), InvalidInput);
+}
+
 TEST(IntegerCoefficients, SmallNonzeroIntegers) {
     const Eigen::VectorXd d = integer_form_coefficients(30);
     for (double x : d) {

@@ -76,6 +76,10 @@ struct ConformalResult {
     kernels::HolomorphicBasis basis;
     FormChoice form = FormChoice::Generic;
     Eigen::VectorXd form_coefficients;       //!< the chosen tau = sum_i d_i (omega_i + i *omega_i)
+    //! The generic coefficients' phase (kernels::generic_form_coefficients): 1, or where its
+    //! image folds on over 1 % of the triangles, the one of phases 1-8 with fewest flips if that
+    //! has under half the first's. Always 1 for the integer-period form.
+    int form_phase = 1;
     Eigen::VectorXcd tau;                    //!< #E chosen form
     kernels::ConformalMap map;
     //! Quality on the triangulation the Laplacian was built on (where the discrete map is

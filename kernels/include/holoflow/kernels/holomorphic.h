@@ -81,7 +81,9 @@ struct HomologyBasis;
 
 //! Deterministic, generic real coefficients for a combination of n basis forms (no two equal,
 //! none zero, no rational relation of small height), so the chosen form has no special symmetry.
-Eigen::VectorXd generic_form_coefficients(Eigen::Index n);
+//! `phase` >= 1 picks one of a sequence of such choices (the golden-angle phases shifted by
+//! phase - 1 steps); integer_form_coefficients scales phase 1.
+Eigen::VectorXd generic_form_coefficients(Eigen::Index n, int phase = 1);
 
 //! The generic coefficients times `scale`, rounded to integers (at scale 1 each is 1 or 2). A form
 //! sum_i d_i omega_i of the basis dual to the generator loops then has integer periods, so its
@@ -99,7 +101,8 @@ Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis&
 //! boundary) is a horizontal trajectory. `x`: generic_form_coefficients (the default) or
 //! integer_form_coefficients (then d is an integer vector too).
 Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, const Eigen::VectorXd& x);
-Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution);
+//! The even part of generic_form_coefficients(n, phase).
+Eigen::VectorXd even_form_coefficients(const Eigen::MatrixXi& involution, int phase = 1);
 
 //! An even integer vector d = (I + S^T) x with x = integer_form_coefficients(n, k) for the
 //! smallest k >= 1 that gives d != 0 (at k = 1 the 1s and 2s can be odd under s: then d = 0 and
