@@ -316,23 +316,23 @@ void integrate(ConformalWork& work) {
         const Eigen::VectorXd conjugate = r.star.star.transpose() * d;
         return (omega * d).cast<Complex>() + Complex(0, 1) * (omega * conjugate).cast<Complex>();
     };
-    // Flipped image triangles of the form with coefficients d where the Laplacian was built.
-    const auto laplace_flips = [&](const Eigen::VectorXd& d) {
-        return work.intrinsic_laplacian()
-                   ? kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
-                                          form_of(d, work.intrinsic.forms)).flipped
-                   : kernels::map_quality(surface, kernels::edge_lengths(surface), form_of(d, r.harmonic)).flipped;
+    const auto input_mesh_quality = [&](const Eigen::VectorXcd& tau) {
+        return kernels::map_quality(surface, kernels::edge_lengths(surface), tau);
+    };
+    // The quality of the form with coefficients d where the Laplacian was built.
+    const auto laplace_quality = [&](const Eigen::VectorXd& d) {
+        return work.intrinsic_laplacian() ? kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
+                                                                 form_of(d, work.intrinsic.forms))
+                                          : input_mesh_quality(form_of(d, r.harmonic));
     };
     const auto integrate_chosen = [&] {
         r.tau = form_of(r.form_coefficients, r.harmonic);
         // The map (a serial walk over the faces) and its quality checks are independent.
         side_by_side([&] { r.map = kernels::integrate_form(surface, r.homology, r.tau); },
                      [&] {
-                         r.input_mesh_quality = kernels::map_quality(surface, kernels::edge_lengths(surface), r.tau);
-                         r.quality = !work.intrinsic_laplacian()
-                                         ? r.input_mesh_quality
-                                         : kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
-                                                                form_of(r.form_coefficients, work.intrinsic.forms));
+                         r.input_mesh_quality = input_mesh_quality(r.tau);
+                         r.quality = work.intrinsic_laplacian() ? laplace_quality(r.form_coefficients)
+                                                                : r.input_mesh_quality;
                      });
     };
     r.form_phase = 1;
@@ -347,7 +347,7 @@ void integrate(ConformalWork& work) {
         Index best = r.quality.flipped;
         int best_phase = 1;
         for (int phase = 2; phase <= kFormPhases; ++phase)
-            if (const Index flips = laplace_flips(generic(phase)); flips < best) best = flips, best_phase = phase;
+            if (const Index flips = laplace_quality(generic(phase)).flipped; flips < best) best = flips, best_phase = phase;
         if (2 * best < r.quality.flipped) {
             r.form_phase = best_phase;
             r.form_coefficients = generic(best_phase);

@@ -227,14 +227,13 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
     // surfaces where asked (their limbs then keep their scale, see SegmentOptions::slice_tips).
     // There a surface whose detected tips cannot be sliced (every hole would wrap a handle or
     // cut it) is segmented as it is.
-    const bool needs_tips = topology.genus == 0 && topology.boundary_loops <= 1;
+    const bool needs_tips = (topology.genus == 0 && topology.boundary_loops <= 1) || !work.options.tips.empty();
     std::optional<SlicedSurface> sliced;
-    if (needs_tips || !work.options.tips.empty()) {
-        sliced = slice_at_tips(input, topology, work.options, r);
-    } else if (work.options.slice_tips) {
+    if (needs_tips || work.options.slice_tips) {
         try {
             sliced = slice_at_tips(input, topology, work.options, r);
-        } catch (const InvalidInput&) {  // r.tips stay empty
+        } catch (const InvalidInput&) {
+            if (needs_tips) throw;  // else r.tips stay empty
         }
     }
     if (sliced) {
@@ -693,85 +692,6 @@ void trace(SegmentationWork& work) {
     clock.lap("tracing");
 }
 
-namespace {
-
-// Every stage in order (segment(); add_tips_where_collapsed segments again).
-SegmentationResult all_stages(std::shared_ptr<const MeshView> input, const SegmentOptions& options,
-                              FactorizationCache* cache) {
-    SegmentationWork work = prepare(std::move(input), options);
-    conformal_stage::run_after_prepare(work.conformal, cache);
-    zeros(work);
-    fans(work);
-    trace(work);
-    cut(work);
-    return std::move(work.result);
-}
-
-// The vertex of `mesh` at `point`, else the nearest one; ties to the smaller id.
-Index vertex_at(const MeshView& mesh, const Eigen::RowVector3d& point) {
-    Index best = 0;
-    double best_distance = std::numeric_limits<double>::infinity();
-    for (Index v = 0; v < mesh.n_vertices(); ++v)
-        if (const double d = (mesh.V.row(v) - point).squaredNorm(); d < best_distance) best = v, best_distance = d;
-    return best;
-}
-
-Index unfinished_trajectories(const SegmentationResult& r) {
-    return std::count_if(r.trajectories.begin(), r.trajectories.end(),
-                         [](const Trajectory& t) { return t.end == Trajectory::End::LengthCap; });
-}
-
-// SegmentOptions::tips_where_collapsed.
-void add_tips_where_collapsed(SegmentationWork& work) {
-    constexpr int kRounds = 2;
-    constexpr double kLeastShare = 0.01;  // of the surface's area, collapsed in one limb
-    if (!work.options.tips_where_collapsed || !work.options.tips.empty()) return;  // given tips stay
-    for (int round = 0; round < kRounds; ++round) {
-        const SegmentationResult& r = work.result;
-        // A tip on a vertex that a refinement added (-1) could not be given again.
-        if (r.tips.empty() || std::find(r.tips.begin(), r.tips.end(), -1) != r.tips.end() ||
-            r.collapsed.fraction() < kLeastShare)
-            return;
-        std::vector<Index> tips = r.tips;
-        const std::vector<char> collapsed = kernels::collapsed_faces(r.cut.mesh, r.patches.corner_uv, kCollapsedScale);
-        for (Index v : kernels::collapsed_limb_tips(r.cut.mesh, collapsed, kLeastShare)) {
-            if (static_cast<int>(tips.size()) >= work.options.max_tips) break;
-            // The cut mesh keeps the positions of the given mesh's vertices it has.
-            const Index tip = vertex_at(*work.given, r.cut.mesh.V.row(v));
-            if (std::find(tips.begin(), tips.end(), tip) == tips.end()) tips.push_back(tip);
-        }
-        if (tips.size() == r.tips.size()) return;
-        SegmentOptions options = work.options;
-        options.tips = tips;
-        options.tips_where_collapsed = false;
-        SegmentationResult more;
-        try {
-            more = all_stages(work.given, options, nullptr);  // a new pattern: no cache
-        } catch (const InvalidInput&) {  // a hole there cuts the mesh or wraps a handle
-            return;
-        } catch (const SolverFailure&) {
-            return;
-        } catch (const ResourceLimit&) {
-            ++work.result.tries_over_memory_limit;
-            if (options.stop_at_memory_limit) throw;
-            return;
-        }
-        const bool better = more.collapsed.fraction() < r.collapsed.fraction() &&
-                            flipped_uv_triangles(more.patches) <= flipped_uv_triangles(r.patches) &&
-                            unfinished_trajectories(more) <= unfinished_trajectories(r) &&
-                            more.regular.failed_weight <= r.regular.failed_weight;
-        if (!better) {
-            add_stage_times(work.result.timings_ms, more.timings_ms);
-            return;
-        }
-        add_stage_times(more.timings_ms, r.timings_ms);
-        more.tips_added_where_collapsed = r.tips_added_where_collapsed + static_cast<int>(tips.size() - r.tips.size());
-        work.result = std::move(more);
-    }
-}
-
-}  // namespace
-
 void cut(SegmentationWork& work) {
     SegmentationResult& r = work.result;
     StageClock clock(r.timings_ms);
@@ -854,7 +774,84 @@ void cut(SegmentationWork& work) {
     r.complex = kernels::flow_complex(r.cut.mesh, r.cut.edge_trajectory, r.patches.face_patch, is_zero);
     r.collapsed = kernels::collapsed_area(r.cut.mesh, r.patches.corner_uv, kCollapsedScale);
     clock.lap("patches");
-    add_tips_where_collapsed(work);
+}
+
+namespace {
+
+// Every stage in order (segment(); tips_where_collapsed segments again).
+SegmentationResult all_stages(std::shared_ptr<const MeshView> input, const SegmentOptions& options,
+                              FactorizationCache* cache) {
+    SegmentationWork work = prepare(std::move(input), options);
+    conformal_stage::run_after_prepare(work.conformal, cache);
+    zeros(work);
+    fans(work);
+    trace(work);
+    cut(work);
+    tips_where_collapsed(work);
+    return std::move(work.result);
+}
+
+// The vertex of `mesh` at `point`, else the nearest one; ties to the smaller id.
+Index vertex_at(const MeshView& mesh, const Eigen::RowVector3d& point) {
+    Index best = 0;
+    double best_distance = std::numeric_limits<double>::infinity();
+    for (Index v = 0; v < mesh.n_vertices(); ++v)
+        if (const double d = (mesh.V.row(v) - point).squaredNorm(); d < best_distance) best = v, best_distance = d;
+    return best;
+}
+
+Index unfinished_trajectories(const SegmentationResult& r) {
+    return std::count_if(r.trajectories.begin(), r.trajectories.end(),
+                         [](const Trajectory& t) { return t.end == Trajectory::End::LengthCap; });
+}
+
+}  // namespace
+
+void tips_where_collapsed(SegmentationWork& work) {
+    constexpr int kRounds = 2;
+    constexpr double kLeastShare = 0.01;  // of the surface's area, collapsed in one limb
+    if (!work.options.tips_where_collapsed || !work.options.tips.empty()) return;  // given tips stay
+    for (int round = 0; round < kRounds; ++round) {
+        const SegmentationResult& r = work.result;
+        // A tip on a vertex that a refinement added (-1) could not be given again.
+        if (r.tips.empty() || std::find(r.tips.begin(), r.tips.end(), -1) != r.tips.end() ||
+            r.collapsed.fraction() < kLeastShare)
+            return;
+        std::vector<Index> tips = r.tips;
+        for (Index v : kernels::collapsed_limb_tips(r.cut.mesh, r.collapsed.faces, kLeastShare)) {
+            if (static_cast<int>(tips.size()) >= work.options.max_tips) break;
+            // The cut mesh keeps the positions of the given mesh's vertices it has.
+            const Index tip = vertex_at(*work.given, r.cut.mesh.V.row(v));
+            if (std::find(tips.begin(), tips.end(), tip) == tips.end()) tips.push_back(tip);
+        }
+        if (tips.size() == r.tips.size()) return;
+        SegmentOptions options = work.options;
+        options.tips = tips;
+        options.tips_where_collapsed = false;
+        SegmentationResult more;
+        try {
+            more = all_stages(work.given, options, nullptr);  // a new pattern: no cache
+        } catch (const InvalidInput&) {  // a hole there cuts the mesh or wraps a handle
+            return;
+        } catch (const SolverFailure&) {
+            return;
+        } catch (const ResourceLimit&) {
+            ++work.result.tries_over_memory_limit;
+            if (options.stop_at_memory_limit) throw;
+            return;
+        }
+        const bool better = more.collapsed.fraction() < r.collapsed.fraction() &&
+                            flipped_uv_triangles(more.patches) <= flipped_uv_triangles(r.patches) &&
+                            unfinished_trajectories(more) <= unfinished_trajectories(r) &&
+                            more.regular.failed_weight <= r.regular.failed_weight;
+        if (!better) {
+            add_stage_times(work.result.timings_ms, more.timings_ms);
+            return;
+        }
+        add_stage_times(more.timings_ms, r.timings_ms);
+        more.tips_added_where_collapsed = r.tips_added_where_collapsed + static_cast<int>(tips.size() - r.tips.size());
+        work.result = std::move(more);
+    }
 }
 
 }  // namespace segment_stage
@@ -1113,12 +1110,12 @@ nlohmann::json segmentation_report(std::span<const SegmentationResult> component
         double_covered = double_covered || part["double_covered"].get<bool>();
     }
     total["rectangle_error_max"] = rectangle_error;
-    kernels::CollapsedArea collapsed;
+    double collapsed = 0, area = 0;
     for (const SegmentationResult& r : components) {
-        collapsed.collapsed += r.collapsed.collapsed;
-        collapsed.total += r.collapsed.total;
+        collapsed += r.collapsed.collapsed;
+        area += r.collapsed.total;
     }
-    total["collapsed_area"] = collapsed.fraction();
+    total["collapsed_area"] = area > 0 ? collapsed / area : 0.0;
     total["conformal_distortion"] = {{"mean", faces > 0 ? distortion_sum / faces : 0.0}, {"max", distortion_max}};
     total["double_covered"] = double_covered;
     // Vertical mode chooses the form per component (planar domains keep the generic one).

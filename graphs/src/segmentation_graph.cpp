@@ -185,6 +185,9 @@ struct Stages {
     void cut(ModelState& s) const {
         for_each_part(s.parts, [&](engine::SegmentationWork& part) { segment_stage::cut(part); });
     }
+    void tips_where_collapsed(ModelState& s) const {
+        for_each_part(s.parts, [&](engine::SegmentationWork& part) { segment_stage::tips_where_collapsed(part); });
+    }
     void write(ModelState& s) const {
         const auto start = Clock::now();
         std::vector<engine::SegmentationResult> results;
@@ -222,7 +225,8 @@ constexpr NamedStage kBeforeSolves[] = {
 constexpr NamedStage kAfterSolves[] = {
     {"end_solves", &Stages::end_solves}, {"hodge_star", &Stages::hodge_star}, {"integrate", &Stages::integrate},
     {"zeros", &Stages::zeros},           {"fans", &Stages::fans},             {"trace", &Stages::trace},
-    {"cut", &Stages::cut},               {"write", &Stages::write},
+    {"cut", &Stages::cut},               {"tips_where_collapsed", &Stages::tips_where_collapsed},
+    {"write", &Stages::write},
 };
 constexpr const char* kSolvesStage = "solves";  // begin_solves and the blocks
 

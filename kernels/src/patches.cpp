@@ -779,47 +779,28 @@ Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::
     return p;
 }
 
-namespace {
-
-struct FaceCollapse {
-    std::vector<double> area;
-    std::vector<char> collapsed;
-};
-
-FaceCollapse face_collapse(const MeshView& mesh, std::span<const Complex> corner_uv, double ratio) {
+CollapsedArea collapsed_area(const MeshView& mesh, std::span<const Complex> corner_uv, double ratio) {
     const Index nf = mesh.n_faces();
     HOLOFLOW_REQUIRE(corner_uv.size() == 3 * static_cast<std::size_t>(nf), "uv must have three corners per face");
     HOLOFLOW_REQUIRE(ratio > 0, "the collapse ratio must be positive");
-    FaceCollapse out{std::vector<double>(nf), std::vector<char>(nf)};
-    std::vector<double> uv_area(nf);
-    double total = 0, total_uv = 0;
+    std::vector<double> area(nf), uv_area(nf);
+    double total_uv = 0;
+    CollapsedArea out;
     for (Index f = 0; f < nf; ++f) {
         const auto p0 = mesh.V.row(mesh.F(f, 0)), p1 = mesh.V.row(mesh.F(f, 1)), p2 = mesh.V.row(mesh.F(f, 2));
-        out.area[f] = 0.5 * (p1 - p0).cross(p2 - p0).norm();
+        area[f] = 0.5 * (p1 - p0).cross(p2 - p0).norm();
         const Complex a = corner_uv[3 * f], b = corner_uv[3 * f + 1], c = corner_uv[3 * f + 2];
         uv_area[f] = 0.5 * std::abs(cross(b - a, c - a));
-        total += out.area[f];
+        out.total += area[f];
         total_uv += uv_area[f];
     }
     // scale_f < ratio * mean  <=>  uv_area_f / area_f < ratio^2 * total_uv / total; a uv that
     // is one point (total_uv 0) is collapsed everywhere.
-    const double limit = ratio * ratio * total_uv / total;
-    for (Index f = 0; f < nf; ++f) out.collapsed[f] = !(total_uv > 0) || uv_area[f] < limit * out.area[f];
-    return out;
-}
-
-}  // namespace
-
-std::vector<char> collapsed_faces(const MeshView& mesh, std::span<const Complex> corner_uv, double ratio) {
-    return face_collapse(mesh, corner_uv, ratio).collapsed;
-}
-
-CollapsedArea collapsed_area(const MeshView& mesh, std::span<const Complex> corner_uv, double ratio) {
-    const FaceCollapse faces = face_collapse(mesh, corner_uv, ratio);
-    CollapsedArea out;
-    for (std::size_t f = 0; f < faces.area.size(); ++f) {
-        out.total += faces.area[f];
-        if (faces.collapsed[f]) out.collapsed += faces.area[f];
+    const double limit = ratio * ratio * total_uv / out.total;
+    out.faces.resize(nf);
+    for (Index f = 0; f < nf; ++f) {
+        out.faces[f] = !(total_uv > 0) || uv_area[f] < limit * area[f];
+        if (out.faces[f]) out.collapsed += area[f];
     }
     return out;
 }

@@ -282,9 +282,9 @@ std::vector<Index> collapsed_limb_tips(const MeshView& mesh, std::span<const cha
     HOLOFLOW_REQUIRE(min_share >= 0 && min_share <= 1, "min_share must be in [0, 1]");
     // Regions: collapsed faces joined across edges, numbered by their smallest face.
     std::vector<Index> region(nf, -1);
-    std::vector<double> region_area;
+    std::vector<double> area(nf), region_area;
     double total = 0;
-    for (Index f = 0; f < nf; ++f) total += face_area(mesh, f);
+    for (Index f = 0; f < nf; ++f) total += area[f] = face_area(mesh, f);
     for (Index seed = 0; seed < nf; ++seed) {
         if (!collapsed[seed] || region[seed] >= 0) continue;
         const Index id = static_cast<Index>(region_area.size());
@@ -294,7 +294,7 @@ std::vector<Index> collapsed_limb_tips(const MeshView& mesh, std::span<const cha
         while (!stack.empty()) {
             const Index f = stack.back();
             stack.pop_back();
-            region_area[id] += face_area(mesh, f);
+            region_area[id] += area[f];
             for (int k = 0; k < 3; ++k) {
                 const Index t = mesh.twin[3 * f + k];
                 if (t == kNoHalfedge) continue;

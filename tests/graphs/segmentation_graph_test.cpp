@@ -238,7 +238,8 @@ TEST(SegmentationGraph, PrintsItselfAsDot) {
     SegmentationGraph(SegmentationGraphOptions{}).to_dot(dot);
     const std::string text = dot.str();
     EXPECT_EQ(text.rfind("digraph", 0), 0u);
-    for (const char* node : {"read", "validate", "homology_and_factorise", "split_solves", "solve", "trace", "write", "collect"})
+    for (const char* node : {"read", "validate", "homology_and_factorise", "split_solves", "solve", "trace", "tips_where_collapsed",
+                             "write", "collect"})
         EXPECT_NE(text.find(std::string("label=\"") + node + "\""), std::string::npos) << node;
     EXPECT_NE(text.find("decrement"), std::string::npos);
     EXPECT_EQ(std::count(text.begin(), text.end(), '{'), std::count(text.begin(), text.end(), '}'));

@@ -85,6 +85,7 @@ TEST(CollapsedArea, CountsFacesUnderTheMeanScale) {
     const CollapsedArea identity = collapsed_area(s.mesh, uv, 1e-6);
     EXPECT_NEAR(identity.total, 2.0, 1e-12);
     EXPECT_EQ(identity.collapsed, 0.0);
+    EXPECT_EQ(std::count(identity.faces.begin(), identity.faces.end(), 1), 0);
     for (Index f = 0; f < nf; ++f) {
         const double x = (s.mesh.V(s.mesh.F(f, 0), 0) + s.mesh.V(s.mesh.F(f, 1), 0) + s.mesh.V(s.mesh.F(f, 2), 0)) / 3;
         if (x < 1)
@@ -93,6 +94,8 @@ TEST(CollapsedArea, CountsFacesUnderTheMeanScale) {
     const CollapsedArea half = collapsed_area(s.mesh, uv, 1e-6);
     EXPECT_NEAR(half.collapsed, 1.0, 1e-12);
     EXPECT_NEAR(half.fraction(), 0.5, 1e-12);
+    ASSERT_EQ(half.faces.size(), static_cast<std::size_t>(nf));
+    EXPECT_EQ(std::count(half.faces.begin(), half.faces.end(), 1), nf / 2);
     EXPECT_EQ(collapsed_area(s.mesh, uv, 1e-12).collapsed, 0.0);  // 1e-9 is over that
     for (Complex& z : uv) z *= 1e-30;
     EXPECT_NEAR(collapsed_area(s.mesh, uv, 1e-6).fraction(), 0.5, 1e-12);

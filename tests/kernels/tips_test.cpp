@@ -275,7 +275,9 @@ TEST(CollapsedLimbTips, DeepestVertexOfEachCollapsedRegion) {
     for (Index tip : caps) {
         const bool north = sphere.V(tip, 2) > 0;
         for (Index v = 0; v < sphere.n_vertices(); ++v)
-            if ((sphere.V(v, 2) > 0) == north) EXPECT_LE(depth[v], depth[tip]) << v;
+            if ((sphere.V(v, 2) > 0) == north) {
+                EXPECT_LE(depth[v], depth[tip]) << v;
+            }
     }
     EXPECT_TRUE(collapsed_limb_tips(sphere, collapsed, 0.5).empty());  // each cap is a tenth
     EXPECT_TRUE(collapsed_limb_tips(sphere, std::vector<char>(sphere.n_faces(), 0), 0).empty());

@@ -76,8 +76,9 @@ struct SegmentationResult {
     //! Midpoint subdivisions of a genus-0 input too coarse to slice (0 usually); they keep the
     //! input's vertex ids and add vertices after them, where a tip may then be found.
     int tip_refinements = 0;
-    //! Area of the traced surface, and of its part whose patch uv is under kCollapsedScale of the
-    //! mean scale (kernels::collapsed_area): protrusions where the form decayed.
+    //! Area of the traced surface, and of its part (faces of `cut`) whose patch uv is under
+    //! kCollapsedScale of the mean scale (kernels::collapsed_area): protrusions where the form
+    //! decayed.
     kernels::CollapsedArea collapsed;
     //! Of tips, those SegmentOptions::tips_where_collapsed added.
     int tips_added_where_collapsed = 0;
@@ -145,9 +146,11 @@ void fans(SegmentationWork& work);
 //! Critical trajectories from every zero (both families with the motorcycle rule in layout mode).
 void trace(SegmentationWork& work);
 //! Cut along the trajectories (layout mode: transversals open cylinders and split patches at
-//! concave corners), patches with their maps, the flow complex; then, where limbs collapsed,
-//! every stage again with tips added there (SegmentOptions::tips_where_collapsed).
+//! concave corners), patches with their maps, the flow complex.
 void cut(SegmentationWork& work);
+//! Where limbs collapsed, every stage again with tips added there
+//! (SegmentOptions::tips_where_collapsed).
+void tips_where_collapsed(SegmentationWork& work);
 }  // namespace segment_stage
 
 //! \brief The holomorphic flow segmentation of a validated, connected mesh of any genus: the

@@ -47,9 +47,10 @@ struct Patches {
 //! \pre `border` has #E flags, tau #E values.  \throw InvalidInput.
 Patches compute_patches(const MeshView& mesh, const Eigen::VectorXcd& tau, std::span<const char> border);
 
-//! Area of a mesh and of its faces whose uv collapsed (collapsed_area).
+//! Area of a mesh and of its faces whose uv collapsed (collapsed_area), and those faces.
 struct CollapsedArea {
     double collapsed = 0, total = 0;
+    std::vector<char> faces;  //!< #F, 1 where collapsed (every face where the whole uv is one point)
     double fraction() const { return total > 0 ? collapsed / total : 0; }
 };
 
@@ -61,10 +62,6 @@ struct CollapsedArea {
 //! the plane, while flips, rectangle error and distortion stay clean.
 //! \pre corner_uv has 3 #F values, ratio > 0.  \throw InvalidInput.
 CollapsedArea collapsed_area(const MeshView& mesh, std::span<const std::complex<double>> corner_uv, double ratio);
-
-//! Per face, 1 where collapsed_area counts it (every face where the whole uv is one point).
-//! \pre as collapsed_area.  \throw InvalidInput.
-std::vector<char> collapsed_faces(const MeshView& mesh, std::span<const std::complex<double>> corner_uv, double ratio);
 
 //! \brief Gives each disk patch whose uv (the integral of the form) has flipped triangles a
 //! valid uv on the same rectangle instead. Its border loop is laid on the rectangle's sides:
