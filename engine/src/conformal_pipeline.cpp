@@ -53,6 +53,49 @@ void side_by_side(const std::function<void()>& first, const std::function<void()
     if (second_error) std::rethrow_exception(second_error);
 }
 
+// The values of tau = sum_i d_i (omega_i + i *omega_i) on the surface's edges and, with the
+// intrinsic Laplacian, on the intrinsic triangulation's.
+struct FormValues {
+    Eigen::VectorXcd surface, laplace;
+};
+
+// FormValues from the closed forms eta alone (ConformalOptions::chosen_form_only). The real part
+// is the harmonic form eta d + d f (one solve); the imaginary part the harmonic form of the
+// coefficients C^T d = A^{-1} B d (kernels::hodge_star), where B d = eta^T W (eta d + d f) needs
+// no other form (B before hodge_star's symmetrisation, which changes rounding only): a second
+// solve.
+FormValues chosen_form_values(const ConformalWork& work, const Eigen::VectorXd& d) {
+    const bool intrinsic = work.intrinsic_laplacian();
+    const MeshView& laplace_mesh = work.laplace_mesh();
+    const Eigen::MatrixXd& eta_surface = work.closed_forms();
+    const Eigen::MatrixXd& eta_laplace = intrinsic ? work.intrinsic.forms : eta_surface;
+    HOLOFLOW_REQUIRE(work.factor && d.size() == eta_laplace.cols(), "chosen form: factor and coefficients first");
+    Eigen::MatrixXd on_laplace(eta_laplace.rows(), 2), on_surface(intrinsic ? eta_surface.rows() : 0, 2);
+    const auto harmonic = [&](const Eigen::VectorXd& x, Eigen::Index column) {
+        const Eigen::MatrixXd closed = eta_laplace * x;
+        const Eigen::MatrixXd potential =
+            kernels::harmonic_potential(laplace_mesh.E, work.weights, *work.factor, closed, work.pinned);
+        on_laplace.col(column) = kernels::plus_gradient(laplace_mesh.E, closed, potential);
+        if (intrinsic) on_surface.col(column) = kernels::plus_gradient(work.result.surface->E, eta_surface * x, potential);
+    };
+    harmonic(d, 0);
+    const Eigen::Map<const Eigen::VectorXd> w(work.weights.data(), static_cast<Eigen::Index>(work.weights.size()));
+    const Eigen::VectorXd inner = eta_laplace.transpose() * w.cwiseProduct(on_laplace.col(0));
+    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(work.wedge);
+    const double det = lu.determinant();
+    if (!(std::abs(det) > 1e-6) || !std::isfinite(det))
+        throw SolverFailure("chosen form: wedge matrix is singular (det " + std::to_string(det) +
+                            "): forms are not a cohomology basis");
+    harmonic(lu.solve(inner), 1);
+    const auto complex = [](const Eigen::MatrixXd& two) -> Eigen::VectorXcd {
+        return two.col(0).cast<Complex>() + Complex(0, 1) * two.col(1).cast<Complex>();
+    };
+    FormValues values;
+    values.surface = complex(intrinsic ? on_surface : on_laplace);
+    if (intrinsic) values.laplace = complex(on_laplace);
+    return values;
+}
+
 }  // namespace
 
 void require_connected(const kernels::Topology& topology) {
@@ -228,6 +271,7 @@ void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
 }
 
 int begin_solves(ConformalWork& work) {
+    HOLOFLOW_REQUIRE(!work.options.chosen_form_only, "begin_solves: with chosen_form_only, integrate solves");
     work.solves_started = std::chrono::steady_clock::now();
     ConformalResult& r = work.result;
     const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
@@ -303,11 +347,11 @@ void integrate(ConformalWork& work) {
     const bool integer = r.form == FormChoice::IntegerPeriods;
     const auto generic = [&](int phase) {
         return r.double_covered ? kernels::even_form_coefficients(work.involution, phase)
-                                : kernels::generic_form_coefficients(r.harmonic.cols(), phase);
+                                : kernels::generic_form_coefficients(work.form_count(), phase);
     };
     if (integer) {
         r.form_coefficients = r.double_covered ? kernels::even_integer_form_coefficients(work.involution)
-                                               : kernels::integer_form_coefficients(r.harmonic.cols());
+                                               : kernels::integer_form_coefficients(work.form_count());
     } else {
         r.form_coefficients = generic(1);
     }
@@ -319,20 +363,31 @@ void integrate(ConformalWork& work) {
     const auto input_mesh_quality = [&](const Eigen::VectorXcd& tau) {
         return kernels::map_quality(surface, kernels::edge_lengths(surface), tau);
     };
-    // The quality of the form with coefficients d where the Laplacian was built.
-    const auto laplace_quality = [&](const Eigen::VectorXd& d) {
-        return work.intrinsic_laplacian() ? kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length,
-                                                                 form_of(d, work.intrinsic.forms))
-                                          : input_mesh_quality(form_of(d, r.harmonic));
+    const bool intrinsic = work.intrinsic_laplacian();
+    // The form with coefficients d: a combination of the harmonic basis, or its own solves. Its
+    // values on the surface are needed only for the chosen form (`surface_too`).
+    const bool own_solves = work.options.chosen_form_only;
+    if (own_solves) r.basis.genus = static_cast<int>(work.form_count() / 2);
+    const auto values = [&](const Eigen::VectorXd& d, bool surface_too) {
+        if (own_solves) return chosen_form_values(work, d);
+        FormValues v;
+        if (surface_too || !intrinsic) v.surface = form_of(d, r.harmonic);
+        if (intrinsic) v.laplace = form_of(d, work.intrinsic.forms);
+        return v;
+    };
+    // Its quality where the Laplacian was built.
+    const auto laplace_quality = [&](const FormValues& v) {
+        return intrinsic ? kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length, v.laplace)
+                         : input_mesh_quality(v.surface);
     };
     const auto integrate_chosen = [&] {
-        r.tau = form_of(r.form_coefficients, r.harmonic);
+        const FormValues v = values(r.form_coefficients, true);
+        r.tau = v.surface;
         // The map (a serial walk over the faces) and its quality checks are independent.
         side_by_side([&] { r.map = kernels::integrate_form(surface, r.homology, r.tau); },
                      [&] {
                          r.input_mesh_quality = input_mesh_quality(r.tau);
-                         r.quality = work.intrinsic_laplacian() ? laplace_quality(r.form_coefficients)
-                                                                : r.input_mesh_quality;
+                         r.quality = intrinsic ? laplace_quality(v) : r.input_mesh_quality;
                      });
     };
     r.form_phase = 1;
@@ -347,14 +402,22 @@ void integrate(ConformalWork& work) {
         Index best = r.quality.flipped;
         int best_phase = 1;
         for (int phase = 2; phase <= kFormPhases; ++phase)
-            if (const Index flips = laplace_quality(generic(phase)).flipped; flips < best) best = flips, best_phase = phase;
+            if (const Index flips = laplace_quality(values(generic(phase), false)).flipped; flips < best)
+                best = flips, best_phase = phase;
         if (2 * best < r.quality.flipped) {
             r.form_phase = best_phase;
             r.form_coefficients = generic(best_phase);
             integrate_chosen();
         }
     }
-    if (work.intrinsic_laplacian()) {
+    if (own_solves) {
+        work.factor.reset();
+        Eigen::MatrixXd parts(r.tau.size(), 2);
+        parts << r.tau.real(), r.tau.imag();
+        r.closedness_max = kernels::closedness_error(surface, parts);
+        r.homology.closed_forms.resize(0, 0);
+    }
+    if (intrinsic) {
         work.intrinsic.forms = {};
         r.intrinsic = std::make_shared<const kernels::IntrinsicTriangulation>(std::move(work.intrinsic));
     }
@@ -370,11 +433,13 @@ void integrate(ConformalWork& work) {
 void run_after_prepare(ConformalWork& work, FactorizationCache* cache) {
     laplacian(work);
     homology_and_factorise(work, cache);
-    const int blocks = begin_solves(work);
-    par::for_each_index(static_cast<std::size_t>(blocks), blocks > 1,
-                        [&](std::size_t b) { solve_block(work, static_cast<int>(b)); });
-    end_solves(work);
-    hodge_star(work);
+    if (!work.options.chosen_form_only) {
+        const int blocks = begin_solves(work);
+        par::for_each_index(static_cast<std::size_t>(blocks), blocks > 1,
+                            [&](std::size_t b) { solve_block(work, static_cast<int>(b)); });
+        end_solves(work);
+        hodge_star(work);
+    }
     integrate(work);
 }
 

@@ -443,6 +443,7 @@ void fans(SegmentationWork& work) {
         const auto held = static_cast<std::size_t>(8 * (r.conformal.harmonic.size() + r.conformal.homology.closed_forms.size()) +
                                                    16 * r.conformal.tau.size());
         if (limit > 0) limit = limit > held ? limit - held : 1;
+        o.conformal.chosen_form_only = true;  // a try needs its form, not the period matrix
         return o;
     };
     const auto midpoint_try = [&] {
@@ -504,7 +505,7 @@ void fans(SegmentationWork& work) {
     // times the faces, and a scan's pinholes give double covers of genus 100 and more, where
     // filling them first places more fans for a fraction of the time (bench/README, "Pinholes
     // first").
-    const auto forms = static_cast<double>(r.conformal.harmonic.cols());
+    const double forms = 2.0 * r.conformal.basis.genus;
     if (forms * static_cast<double>(r.traced_input->n_faces()) > kPinholesFirstFaceForms)
         fill_holes_at_failed_fans(std::min(kPinholeEdges, work.options.holes.longest_fillable_loop));
     refine();

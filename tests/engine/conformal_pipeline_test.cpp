@@ -226,11 +226,42 @@ TEST(Conformal, AFoldedGenericFormGivesWayToAnotherPhase) {
     PointMatrix V(dragon->n_vertices() - 1, 3);
     V.topRows(kTop) = dragon->V.topRows(kTop);
     V.bottomRows(dragon->n_vertices() - kTop - 1) = dragon->V.bottomRows(dragon->n_vertices() - kTop - 1);
-    const ConformalResult c = compute_conformal(make_mesh_view(std::move(V), std::move(F)));
+    const auto dragon_without_top = std::make_shared<const MeshView>(make_mesh_view(std::move(V), std::move(F)));
+    const ConformalResult c = compute_conformal(*dragon_without_top);
     ASSERT_EQ(c.basis.genus, 2);
     EXPECT_GT(c.form_phase, 1);
     EXPECT_LT(static_cast<double>(c.quality.flipped), 0.01 * static_cast<double>(c.intrinsic->mesh.n_faces()));
     EXPECT_EQ(compute_conformal(*test::corpus_mesh("eight")).form_phase, 1);
+    ConformalOptions alone;
+    alone.chosen_form_only = true;
+    EXPECT_EQ(compute_conformal(*dragon_without_top, alone).form_phase, c.form_phase);
+}
+
+// The chosen form from its own two solves (what the refinement tries use) is the basis
+// combination the full stage makes, up to rounding: closed and open input (the even form of a
+// double cover), both Laplacians, both forms; and the same phase where the first one folds.
+TEST(Conformal, TheChosenFormAloneIsTheBasisCombination) {
+    for (const char* name : {"eight", "head"})
+        for (const LaplacianKind laplacian : {LaplacianKind::IntrinsicDelaunay, LaplacianKind::Extrinsic})
+            for (const FormChoice form : {FormChoice::Generic, FormChoice::IntegerPeriods}) {
+                SCOPED_TRACE(std::string(name) + (laplacian == LaplacianKind::Extrinsic ? " extrinsic " : " intrinsic ") +
+                             form_name(form));
+                ConformalOptions options;
+                options.laplacian = laplacian;
+                options.form = form;
+                const auto mesh = test::corpus_mesh(name);
+                const ConformalResult full = compute_conformal(*mesh, options);
+                options.chosen_form_only = true;
+                const ConformalResult alone = compute_conformal(*mesh, options);
+                EXPECT_EQ(alone.basis.genus, full.basis.genus);
+                EXPECT_EQ(alone.harmonic.size(), 0);
+                EXPECT_EQ(alone.form_coefficients, full.form_coefficients);
+                ASSERT_EQ(alone.tau.size(), full.tau.size());
+                EXPECT_LT((alone.tau - full.tau).norm(), 1e-10 * full.tau.norm());
+                EXPECT_EQ(alone.quality.flipped, full.quality.flipped);
+                EXPECT_LT(alone.closedness_max, 1e-12);
+                EXPECT_EQ(alone.intrinsic != nullptr, laplacian == LaplacianKind::IntrinsicDelaunay);
+            }
 }
 
 TEST(Conformal, SolveBlocksAreFewAndEven) {

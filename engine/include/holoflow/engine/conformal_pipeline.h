@@ -60,6 +60,12 @@ struct ConformalOptions {
     //! dense 2g-column forms) exceeds this many bytes: checked before the homology allocates the
     //! forms and again before factorizing; 0: no limit.
     std::size_t max_solver_bytes = 0;
+    //! Compute the chosen form alone: two one-column solves (its real part, then its conjugate)
+    //! for each phase tried instead of 2g for the harmonic basis. No Hodge star, period matrix or
+    //! basis checks (`harmonic`, `star` and `basis` stay empty but for basis.genus). What the
+    //! segmentation's refinement tries need: on a double cover of genus 100 and more the 2g
+    //! solves were most of their time.
+    bool chosen_form_only = false;
 };
 
 
@@ -71,7 +77,7 @@ struct ConformalResult {
     std::shared_ptr<const kernels::DoubleCover> cover;  //!< set for open input
     //! The cut graph and loops; its closed forms become `harmonic` (empty once the solves begin).
     kernels::HomologyBasis homology;
-    Eigen::MatrixXd harmonic;                //!< #E x 2g omega_i on `surface`'s edges
+    Eigen::MatrixXd harmonic;                //!< #E x 2g omega_i on `surface`'s edges (none: chosen_form_only)
     kernels::HodgeStar star;
     kernels::HolomorphicBasis basis;
     FormChoice form = FormChoice::Generic;
@@ -168,7 +174,9 @@ void solve_block(ConformalWork& work, int block);
 void end_solves(ConformalWork& work);
 //! Hodge star, canonical basis, period matrix, closedness.
 void hodge_star(ConformalWork& work);
-//! The chosen form, its integration and map quality.
+//! The chosen form, its integration and map quality. With chosen_form_only, the form's own solves
+//! too (after homology_and_factorise, with no begin_solves ... hodge_star): they count as
+//! `integration`.
 void integrate(ConformalWork& work);
 //! Every stage after prepare, in order, in one call: homology beside the factorisation and the
 //! solve blocks side by side, as the flow graph runs them.
