@@ -30,6 +30,12 @@ constexpr double kNegativeWeightTol = 1e-12;
 // the triangles (ConformalResult::form_phase).
 constexpr double kFoldedShare = 0.01;
 constexpr int kFormPhases = 8;
+// The chosen form alone (ConformalOptions::chosen_form_only) sums the potentials of this many
+// groups of generators. Where the form falls under a potential's rounding (limbs it decays
+// along, to 1e-16 of its largest values) one potential is flat to the last bit and the form
+// exactly 0 there, degenerate image triangles the zero fans fail on (bull stretched 10 : 1: 9
+// failed instead of 3); a sum of several keeps rounding noise there, as the 2g basis forms do.
+constexpr Eigen::Index kPotentialGroups = 8;
 
 //! Runs `first` here and `second` as a task beside it, then throws first's error, else second's:
 //! the same error whichever finished first.
@@ -67,16 +73,25 @@ struct FormValues {
 FormValues chosen_form_values(const ConformalWork& work, const Eigen::VectorXd& d) {
     const bool intrinsic = work.intrinsic_laplacian();
     const MeshView& laplace_mesh = work.laplace_mesh();
-    const Eigen::MatrixXd& eta_surface = work.closed_forms();
-    const Eigen::MatrixXd& eta_laplace = intrinsic ? work.intrinsic.forms : eta_surface;
+    const Eigen::SparseMatrix<double>& eta_surface = work.result.homology.sparse_closed_forms;
+    const Eigen::SparseMatrix<double>& eta_laplace = intrinsic ? work.laplace_closed_forms : eta_surface;
     HOLOFLOW_REQUIRE(work.factor && d.size() == eta_laplace.cols(), "chosen form: factor and coefficients first");
     Eigen::MatrixXd on_laplace(eta_laplace.rows(), 2), on_surface(intrinsic ? eta_surface.rows() : 0, 2);
+    // x split over kPotentialGroups groups of generators, each its own potential (columns of
+    // one solve): see kPotentialGroups.
     const auto harmonic = [&](const Eigen::VectorXd& x, Eigen::Index column) {
-        const Eigen::MatrixXd closed = eta_laplace * x;
+        const Eigen::Index n = x.size(), groups = std::min<Eigen::Index>(kPotentialGroups, n);
+        Eigen::MatrixXd parts = Eigen::MatrixXd::Zero(n, groups);
+        for (Eigen::Index i = 0; i < n; ++i) parts(i, i % groups) = x[i];
+        const Eigen::MatrixXd closed = eta_laplace * parts;
         const Eigen::MatrixXd potential =
             kernels::harmonic_potential(laplace_mesh.E, work.weights, *work.factor, closed, work.pinned);
-        on_laplace.col(column) = kernels::plus_gradient(laplace_mesh.E, closed, potential);
-        if (intrinsic) on_surface.col(column) = kernels::plus_gradient(work.result.surface->E, eta_surface * x, potential);
+        on_laplace.col(column) = kernels::plus_gradient(laplace_mesh.E, closed, potential).rowwise().sum();
+        if (intrinsic)
+            on_surface.col(column) =
+                kernels::plus_gradient(work.result.surface->E, Eigen::MatrixXd(eta_surface * parts), potential)
+                    .rowwise()
+                    .sum();
     };
     harmonic(d, 0);
     const Eigen::Map<const Eigen::VectorXd> w(work.weights.data(), static_cast<Eigen::Index>(work.weights.size()));
@@ -177,23 +192,32 @@ void homology(ConformalWork& work, StageTimes& times) {
     HOLOFLOW_REQUIRE(work.pinned.size() == 1, "homology: the laplacian stage comes first");
     kernels::HomologyOptions homology_options;
     homology_options.root = work.pinned.front();
+    // The chosen form alone needs no dense forms: no harmonic forms are made of them in place.
+    const bool sparse = work.options.chosen_form_only;
+    homology_options.sparse_forms = sparse;
     r.homology = kernels::compute_homology_basis(*r.surface, homology_options);
     clock.lap("cut_graph_and_closed_forms");
     if (work.options.closed_forms) {
         HOLOFLOW_REQUIRE(!r.double_covered, "given closed forms need closed input");
         HOLOFLOW_REQUIRE(work.options.closed_forms->rows() == r.surface->n_edges() &&
-                             work.options.closed_forms->cols() == r.homology.closed_forms.cols(),
+                             work.options.closed_forms->cols() == 2 * r.homology.genus,
                          "given closed forms must be #E x 2g");
+        if (sparse) r.homology.sparse_closed_forms = work.options.closed_forms->sparseView();
     }
     // A depends on the classes only: ready here, off the solves' path.
-    work.wedge = kernels::wedge_matrix(*r.surface, work.closed_forms());
+    work.wedge = sparse ? kernels::wedge_matrix(*r.surface, r.homology.sparse_closed_forms)
+                        : kernels::wedge_matrix(*r.surface, work.closed_forms());
     // So does the cover's involution on them (the solves take the closed forms over).
     if (r.double_covered) work.involution = kernels::involution_matrix(*r.cover, r.homology);
     clock.lap("wedge_matrix");
     if (work.intrinsic_laplacian()) {
         HOLOFLOW_REQUIRE(work.intrinsic.form_slot.size() == static_cast<std::size_t>(r.surface->n_edges()),
                          "homology: the intrinsic triangulation comes first (laplacian stage)");
-        work.intrinsic.forms = kernels::carry_forms(work.intrinsic, work.closed_forms());
+        if (sparse) {
+            work.laplace_closed_forms = kernels::carry_forms(work.intrinsic, r.homology.sparse_closed_forms);
+        } else {
+            work.intrinsic.forms = kernels::carry_forms(work.intrinsic, work.closed_forms());
+        }
         clock.lap("carry_forms");
     }
 }
@@ -204,7 +228,8 @@ void homology(ConformalWork& work, StageTimes& times) {
 // potentials and the co-closedness residual on the vertices.
 void check_memory(const ConformalWork& work, std::size_t factor_nonzeros) {
     if (work.options.max_solver_bytes == 0) return;
-    const auto columns = static_cast<std::size_t>(std::max<Index>(work.form_count(), 0));
+    // The chosen form alone holds sparse forms and a few dense columns: say four.
+    const auto columns = static_cast<std::size_t>(work.options.chosen_form_only ? 4 : std::max<Index>(work.form_count(), 0));
     const auto edges = static_cast<std::size_t>(work.result.surface->n_edges());
     const auto vertices = static_cast<std::size_t>(work.result.surface->n_vertices());
     const std::size_t bytes = 8 * (factor_nonzeros + columns * (2 * edges + 3 * vertices));
@@ -415,7 +440,8 @@ void integrate(ConformalWork& work) {
         Eigen::MatrixXd parts(r.tau.size(), 2);
         parts << r.tau.real(), r.tau.imag();
         r.closedness_max = kernels::closedness_error(surface, parts);
-        r.homology.closed_forms.resize(0, 0);
+        r.homology.sparse_closed_forms = {};
+        work.laplace_closed_forms = {};
     }
     if (intrinsic) {
         work.intrinsic.forms = {};

@@ -160,7 +160,9 @@ Eigen::VectorXd integer_form_coefficients(Eigen::Index n, int scale) {
 
 Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis& homology) {
     const MeshView& mesh = cover.mesh;
-    HOLOFLOW_REQUIRE(static_cast<Index>(homology.closed_forms.rows()) == mesh.n_edges(),
+    const bool sparse = homology.closed_forms.size() == 0;
+    HOLOFLOW_REQUIRE(static_cast<Index>(sparse ? homology.sparse_closed_forms.rows() : homology.closed_forms.rows()) ==
+                         mesh.n_edges(),
                      "homology basis belongs to another mesh");
     // The image of halfedge x->y is the halfedge s(x)->s(y): the twin of the halfedge
     // s(y)->s(x) of the mirror face (which has the reversed orientation).
@@ -173,12 +175,20 @@ Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis&
         }
         throw InvalidInput("involution_matrix: cover faces do not mirror each other");
     };
-    const Eigen::Index n = homology.closed_forms.cols();
+    const Eigen::Index n = sparse ? homology.sparse_closed_forms.cols() : homology.closed_forms.cols();
     HOLOFLOW_REQUIRE(homology.loops.size() == static_cast<std::size_t>(n), "one homology loop per closed form");
     std::vector<std::vector<Index>> images(homology.loops.size());
     for (std::size_t j = 0; j < images.size(); ++j)
         for (const Index h : homology.loops[j]) images[j].push_back(mirror(h));
-    const Eigen::MatrixXd periods = integrate_along_paths(mesh, homology.closed_forms, images);
+    if (!sparse) return integrate_along_paths(mesh, homology.closed_forms, images).array().round().cast<int>();
+    // Sparse forms: the images as signed edge rows, one product (integer sums, exact).
+    std::vector<Eigen::Triplet<double>> steps;
+    for (std::size_t j = 0; j < images.size(); ++j)
+        for (const Index h : images[j])
+            steps.emplace_back(static_cast<Index>(j), mesh.halfedge_edge[h], static_cast<double>(mesh.edge_sign(h)));
+    Eigen::SparseMatrix<double> paths(n, mesh.n_edges());
+    paths.setFromTriplets(steps.begin(), steps.end());
+    const Eigen::MatrixXd periods = Eigen::MatrixXd(paths * homology.sparse_closed_forms).transpose();
     return periods.array().round().cast<int>();
 }
 

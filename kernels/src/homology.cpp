@@ -238,11 +238,8 @@ HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions
         peel_sign[2 * i] = -mesh.edge_sign(hp) * mesh.edge_sign(ha);
         peel_sign[2 * i + 1] = -mesh.edge_sign(hp) * mesh.edge_sign(hb);
     }
-    basis.closed_forms = Eigen::MatrixXd::Zero(n_e, n_gen);
-    // One independent pass per form: columns in parallel, each writing only its own column.
-    par::for_each_index(static_cast<std::size_t>(n_gen), n_e > 20000, [&](std::size_t column) {
-        const auto j = static_cast<Index>(column);
-        double* eta = basis.closed_forms.col(j).data();
+    // Form j into a zeroed column `eta` of #E values.
+    const auto peel = [&](Index j, double* eta) {
         eta[basis.generator_edges[j]] = 1.0;
         for (Index i = 0; i < n_peel; ++i)
             eta[peel_edge[3 * i]] = peel_sign[2 * i] * eta[peel_edge[3 * i + 1]] +
@@ -251,7 +248,36 @@ HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions
         double root_sum = 0.0;
         for (Index h = 0; h < 3; ++h) root_sum += mesh.edge_sign(h) * eta[mesh.halfedge_edge[h]];
         if (root_sum != 0.0) throw SolverFailure("compute_homology_basis: root face not closed");
-    });
+    };
+    // One independent pass per form: columns in parallel, each writing only its own column.
+    const bool parallel = n_e > 20000;
+    if (!options.sparse_forms) {
+        basis.closed_forms = Eigen::MatrixXd::Zero(n_e, n_gen);
+        par::for_each_index(static_cast<std::size_t>(n_gen), parallel, [&](std::size_t column) {
+            const auto j = static_cast<Index>(column);
+            peel(j, basis.closed_forms.col(j).data());
+        });
+    } else {
+        // Each column through one scratch column per task, kept as its nonzeros in row order.
+        std::vector<std::vector<std::pair<Index, double>>> columns(static_cast<std::size_t>(n_gen));
+        par::for_each_range(static_cast<std::size_t>(n_gen), parallel ? 1 : columns.size() + 1,
+                            [&](std::size_t begin, std::size_t end) {
+                                std::vector<double> eta(static_cast<std::size_t>(n_e));
+                                for (std::size_t j = begin; j < end; ++j) {
+                                    std::fill(eta.begin(), eta.end(), 0.0);
+                                    peel(static_cast<Index>(j), eta.data());
+                                    for (Index e = 0; e < n_e; ++e)
+                                        if (eta[e] != 0.0) columns[j].emplace_back(e, eta[e]);
+                                }
+                            });
+        Eigen::VectorXi nonzeros(n_gen);
+        for (Index j = 0; j < n_gen; ++j) nonzeros[j] = static_cast<int>(columns[j].size());
+        basis.sparse_closed_forms.resize(n_e, n_gen);
+        basis.sparse_closed_forms.reserve(nonzeros);
+        for (Index j = 0; j < n_gen; ++j)
+            for (const auto& [e, value] : columns[j]) basis.sparse_closed_forms.insert(e, j) = value;
+        basis.sparse_closed_forms.makeCompressed();
+    }
 
     basis.loops.reserve(n_gen);
     for (const Index e : basis.generator_edges)
@@ -301,12 +327,15 @@ Eigen::VectorXd integrate_along(const MeshView& mesh, const Eigen::MatrixXd& for
     return integrate_along_paths(mesh, forms, std::span(&path, 1)).col(0);
 }
 
-Eigen::MatrixXd wedge_matrix(const MeshView& mesh, const Eigen::MatrixXd& forms) {
-    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(), "forms must have one row per edge");
+namespace {
+
+// S (#E x #E, skew, two entries per face) with A = Omega^T S Omega: per face with e0 = v0->v1
+// and e2 = v2->v0, (a d - b c)/2 = s0 s2 / 2 (x(e2) y(e0) - x(e0) y(e2)), i.e. S(e2, e0) = +w
+// and S(e0, e2) = -w.
+Eigen::SparseMatrix<double> wedge_operator(const MeshView& mesh) {
     const Index n_e = mesh.n_edges(), n_f = mesh.n_faces();
-    // Per face with e0 = v0->v1 and e2 = v2->v0: (a d - b c)/2 = s0 s2 / 2 (x(e2) y(e0) -
-    // x(e0) y(e2)), i.e. S(e2, e0) = +w and S(e0, e2) = -w. Built column-compressed straight from
-    // the face arrays: each edge is e0 or e2 of at most two faces, so a column has <= 2 entries.
+    // Built column-compressed straight from the face arrays: each edge is e0 or e2 of at most two
+    // faces, so a column has <= 2 entries.
     std::vector<Index> start(static_cast<std::size_t>(n_e) + 1, 0);
     for (Index f = 0; f < n_f; ++f) {
         ++start[mesh.halfedge_edge[3 * f] + 1];
@@ -345,21 +374,35 @@ Eigen::MatrixXd wedge_matrix(const MeshView& mesh, const Eigen::MatrixXd& forms)
         }
     }
     S.makeCompressed();
+    return S;
+}
+
+// A skew-symmetrised: S is exactly skew; this only removes rounding from the two summation orders.
+Eigen::MatrixXd skew_part(const Eigen::MatrixXd& A) { return 0.5 * (A - A.transpose()); }
+
+}  // namespace
+
+Eigen::MatrixXd wedge_matrix(const MeshView& mesh, const Eigen::MatrixXd& forms) {
+    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(), "forms must have one row per edge");
+    const Eigen::SparseMatrix<double> S = wedge_operator(mesh);
     // Forms dual to a tree-cotree basis live on dual paths (a fraction of a percent of the
     // entries are nonzero): a sparse product then beats the dense (2g x #E) x (#E x 2g) one by
     // orders of magnitude at high genus. Harmonic forms are dense and take the dense product.
     const auto nonzeros = (forms.array() != 0.0).count();
-    Eigen::MatrixXd A;
     if (static_cast<double>(nonzeros) < kSparseFormsDensity * static_cast<double>(forms.size())) {
         const Eigen::SparseMatrix<double> O = forms.sparseView();
         const Eigen::SparseMatrix<double> SO = S * O;
-        A = Eigen::MatrixXd(O.transpose() * SO);
-    } else {
-        const Eigen::MatrixXd SO = S * forms;
-        A = forms.transpose() * SO;
+        return skew_part(Eigen::MatrixXd(O.transpose() * SO));
     }
-    // S is exactly skew; symmetrising only removes rounding from the two summation orders.
-    return 0.5 * (A - A.transpose());
+    const Eigen::MatrixXd SO = S * forms;
+    return skew_part(forms.transpose() * SO);
+}
+
+Eigen::MatrixXd wedge_matrix(const MeshView& mesh, const Eigen::SparseMatrix<double>& forms) {
+    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(), "forms must have one row per edge");
+    const Eigen::SparseMatrix<double> S = wedge_operator(mesh);
+    const Eigen::SparseMatrix<double> SO = S * forms;
+    return skew_part(Eigen::MatrixXd(forms.transpose() * SO));
 }
 
 Eigen::MatrixXi symplectic_basis(const Eigen::MatrixXi& J) {

@@ -207,6 +207,9 @@ TEST(Involution, EvenFormsOnADoubleCover) {
     const HomologyBasis h = compute_homology_basis(cover.mesh);
     ASSERT_EQ(h.genus, 2);
     const Eigen::MatrixXi S = involution_matrix(cover, h);
+    HomologyOptions sparse_forms;
+    sparse_forms.sparse_forms = true;
+    EXPECT_EQ(involution_matrix(cover, compute_homology_basis(cover.mesh, sparse_forms)), S);
     EXPECT_EQ(S * S, Eigen::MatrixXi::Identity(4, 4));  // s is an involution
     EXPECT_NE(S, Eigen::MatrixXi::Identity(4, 4));
     const Eigen::VectorXd d = even_form_coefficients(S);

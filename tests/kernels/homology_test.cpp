@@ -227,6 +227,29 @@ TEST(Homology, SameBitsOnOneOrTwoThreads) {
     expect_identical(one, two);
 }
 
+// Sparse forms are the dense ones without their zeros, also where the columns are peeled in
+// parallel (more than 20000 edges), on one thread or two; their wedge matrix is the dense one's.
+TEST(Homology, SparseFormsAreTheDenseOnes) {
+    for (const MeshView& mesh : {shapes::genus_surface(3, 2),
+                                 subdivide_midpoint(subdivide_midpoint(subdivide_midpoint(shapes::genus_surface(6, 2))))}) {
+        SCOPED_TRACE(std::to_string(mesh.n_edges()) + " edges");
+        const HomologyBasis dense = compute_homology_basis(mesh);
+        HomologyOptions options;
+        options.sparse_forms = true;
+        for (int threads : {1, 2}) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+            const HomologyBasis sparse = compute_homology_basis(mesh, options);
+            EXPECT_EQ(sparse.closed_forms.size(), 0);
+            EXPECT_TRUE(Eigen::MatrixXd(sparse.sparse_closed_forms) == dense.closed_forms) << threads << " threads";
+            EXPECT_EQ(sparse.sparse_closed_forms.nonZeros(), (dense.closed_forms.array() != 0.0).count());
+            EXPECT_EQ(sparse.loops, dense.loops);
+            EXPECT_EQ(sparse.cut_edge, dense.cut_edge);
+            EXPECT_TRUE(wedge_matrix(mesh, sparse.sparse_closed_forms) == wedge_matrix(mesh, dense.closed_forms));
+        }
+        EXPECT_EQ(dense.sparse_closed_forms.size(), 0);
+    }
+}
+
 TEST(Homology, SubdividedSurfaceKeepsInvariants) {
     const MeshView mesh = subdivide_midpoint(shapes::genus_surface(3, 1));
     check_homology_basis(mesh, compute_homology_basis(mesh), 3);

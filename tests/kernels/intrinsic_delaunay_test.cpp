@@ -335,6 +335,24 @@ TEST(IntrinsicDelaunay, CarriedFormsAreEachColumnsOwnReplay) {
     }
 }
 
+// Sparse forms carry to the dense overload's values (its zeros dropped), on one thread or two.
+TEST(IntrinsicDelaunay, SparseFormsCarryToTheDenseValues) {
+    const MeshView grid = sheared_grid(100, 90, 2.3, 0.35);
+    const IntrinsicTriangulation r = intrinsic_delaunay(grid);
+    std::mt19937_64 rng(20261208);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    Eigen::MatrixXd forms = Eigen::MatrixXd::Zero(grid.n_edges(), 7);
+    for (Eigen::Index k = 0; k < forms.size(); k += 37) forms.data()[k] = uniform(rng);  // a few nonzeros
+    const Eigen::MatrixXd expected = carry_forms(r, forms);
+    for (int threads : {1, 2}) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        const Eigen::SparseMatrix<double> carried = carry_forms(r, Eigen::SparseMatrix<double>(forms.sparseView()));
+        EXPECT_TRUE(Eigen::MatrixXd(carried) == expected) << threads << " threads";
+        EXPECT_EQ(carried.nonZeros(), (expected.array() != 0.0).count());
+    }
+    EXPECT_THROW(carry_forms(r, Eigen::SparseMatrix<double>(forms.topRows(5).sparseView())), InvalidInput);
+}
+
 TEST(IntrinsicDelaunay, FlipCapStopsEarlyAndReportsIt) {
     const MeshView grid = sheared_grid(8, 6, 2.3, 0.35);
     const IntrinsicTriangulation full = intrinsic_delaunay(grid, exact_form(grid));

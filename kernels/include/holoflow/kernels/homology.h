@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <span>
 #include <vector>
 
@@ -20,7 +21,10 @@ struct HomologyBasis {
     std::vector<std::vector<Index>> loops;
     //! #E x 2g: eta_i measured along E(e,0) -> E(e,1); 0 on the tree, delta_ij on generator j,
     //! fixed on the cotree by closedness. Integer-valued, so every face sum is exactly 0.
+    //! Empty with HomologyOptions::sparse_forms.
     Eigen::MatrixXd closed_forms;
+    //! The same forms column-compressed: with HomologyOptions::sparse_forms only, else empty.
+    Eigen::SparseMatrix<double> sparse_closed_forms;
     std::vector<char> cut_edge;       //!< #E: tree + generators pruned of dangling branches
     std::vector<Index> corner_wedge;  //!< #H: fundamental-domain vertex of corner h (at tail(h))
     Index n_wedges = 0;               //!< vertices of the fundamental domain
@@ -31,6 +35,10 @@ struct HomologyOptions {
     //! index on ties, distances compared to 2^-30 of the largest), which keeps the tree shallow
     //! and the loops short on most shapes.
     Index root = -1;
+    //! The closed forms as `sparse_closed_forms` instead of `closed_forms`: dual to a tree-cotree
+    //! basis they live on dual paths (a fraction of a percent of the #E x 2g entries), so at high
+    //! genus the dense matrix costs far more to allocate than the forms to compute. The same values.
+    bool sparse_forms = false;
 };
 
 //! The vertex nearest the centroid of the vertices, smallest index on ties (distances compared
@@ -61,6 +69,10 @@ Eigen::MatrixXd integrate_along_paths(const MeshView& mesh, const Eigen::MatrixX
 //! sparse product Omega^T S Omega (S skew, two entries per face) and skew-symmetrised.
 //! \throw InvalidInput if forms has a row count other than #E.
 Eigen::MatrixXd wedge_matrix(const MeshView& mesh, const Eigen::MatrixXd& forms);
+
+//! The same for column-compressed forms (HomologyOptions::sparse_forms); the dense overload's
+//! value for sparse enough forms, bit for bit.
+Eigen::MatrixXd wedge_matrix(const MeshView& mesh, const Eigen::SparseMatrix<double>& forms);
 
 //! \brief Canonical basis: integer unimodular P with P^T J P = [[0, I], [-I, 0]] (columns
 //! a_1..a_g, b_1..b_g), by symplectic Gram-Schmidt with Euclid over the integers.

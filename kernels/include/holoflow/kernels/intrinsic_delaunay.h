@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <vector>
 
 #include "holoflow/kernels/mesh_view.h"
@@ -59,6 +60,11 @@ IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const IntrinsicD
 //! its edges; the same arithmetic in the same order, whoever calls it (bit-identical).
 //! \pre forms has #E rows, all finite.  \throw InvalidInput.
 Eigen::MatrixXd carry_forms(const IntrinsicTriangulation& triangulation, const Eigen::MatrixXd& forms);
+
+//! The same for column-compressed forms: the dense overload's nonzero values, bit for bit, with
+//! no #E x k dense matrix (HomologyOptions::sparse_forms).
+Eigen::SparseMatrix<double> carry_forms(const IntrinsicTriangulation& triangulation,
+                                        const Eigen::SparseMatrix<double>& forms);
 
 //! intrinsic_delaunay, then carry_forms into `forms` of the result.
 IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::MatrixXd& forms,
