@@ -228,14 +228,18 @@ void homology(ConformalWork& work, StageTimes& times) {
 // potentials and the co-closedness residual on the vertices.
 void check_memory(const ConformalWork& work, std::size_t factor_nonzeros) {
     if (work.options.max_solver_bytes == 0) return;
-    // The chosen form alone holds sparse forms and a few dense columns: say four.
-    const auto columns = static_cast<std::size_t>(work.options.chosen_form_only ? 4 : std::max<Index>(work.form_count(), 0));
+    // The chosen form alone holds sparse forms and its potentials' groups of dense columns:
+    // closed parts and gradients on both triangulations and potentials, about four groups.
+    const bool alone = work.options.chosen_form_only;
+    const auto forms = std::max<Index>(work.form_count(), 0);
+    const auto columns = static_cast<std::size_t>(alone ? 4 * kPotentialGroups : forms);
     const auto edges = static_cast<std::size_t>(work.result.surface->n_edges());
     const auto vertices = static_cast<std::size_t>(work.result.surface->n_vertices());
     const std::size_t bytes = 8 * (factor_nonzeros + columns * (2 * edges + 3 * vertices));
     if (bytes > work.options.max_solver_bytes)
         throw ResourceLimit("the conformal stage would need about " + std::to_string(bytes >> 20) +
-                            " MiB (" + std::to_string(columns) + " forms), over the limit of " +
+                            " MiB (" + (alone ? "the chosen one of " : "") + std::to_string(forms) +
+                            " forms), over the limit of " +
                             std::to_string(work.options.max_solver_bytes >> 20) + " MiB");
 }
 
@@ -296,7 +300,7 @@ void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
 }
 
 int begin_solves(ConformalWork& work) {
-    HOLOFLOW_REQUIRE(!work.options.chosen_form_only, "begin_solves: with chosen_form_only, integrate solves");
+    if (work.options.chosen_form_only) return 0;  // integrate solves for the form
     work.solves_started = std::chrono::steady_clock::now();
     ConformalResult& r = work.result;
     const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
@@ -333,6 +337,7 @@ void solve_block(ConformalWork& work, int block) {
 }
 
 void end_solves(ConformalWork& work) {
+    if (work.options.chosen_form_only) return;
     ConformalResult& r = work.result;
     const MeshView& surface = *r.surface;
     const MeshView& laplace_mesh = work.laplace_mesh();
@@ -353,6 +358,7 @@ void end_solves(ConformalWork& work) {
 }
 
 void hodge_star(ConformalWork& work) {
+    if (work.options.chosen_form_only) return;
     ConformalResult& r = work.result;
     StageClock clock(r.timings_ms);
     const Eigen::MatrixXd& laplace_omega = work.intrinsic_laplacian() ? work.intrinsic.forms : r.harmonic;
@@ -459,13 +465,11 @@ void integrate(ConformalWork& work) {
 void run_after_prepare(ConformalWork& work, FactorizationCache* cache) {
     laplacian(work);
     homology_and_factorise(work, cache);
-    if (!work.options.chosen_form_only) {
-        const int blocks = begin_solves(work);
-        par::for_each_index(static_cast<std::size_t>(blocks), blocks > 1,
-                            [&](std::size_t b) { solve_block(work, static_cast<int>(b)); });
-        end_solves(work);
-        hodge_star(work);
-    }
+    const int blocks = begin_solves(work);
+    par::for_each_index(static_cast<std::size_t>(blocks), blocks > 1,
+                        [&](std::size_t b) { solve_block(work, static_cast<int>(b)); });
+    end_solves(work);
+    hodge_star(work);
     integrate(work);
 }
 

@@ -29,6 +29,10 @@ constexpr Index kHomologyCut = -2;  // border label of a torus's cut graph edges
 constexpr int kCylinderRounds = 4;
 // Concave corners are split one per patch and round (a patch with several needs several).
 constexpr int kCornerRounds = 8;
+// From this many forms (2g of the working surface: two blocks of solves) the conformal stage
+// computes the chosen form alone (ConformalOptions::chosen_form_only); the refinement tries
+// always do. Below it the basis costs about what the form alone does, and stays as it was.
+constexpr Index kChosenFormOnlyForms = 64;
 // Where zero fans fail the surface is refined: bisected this many rings around them,
 constexpr int kFanZoneRings = 4;
 // up to this many times its faces (cheese's bisection of every edge: 4.1x) or, on a small one,
@@ -246,6 +250,9 @@ SegmentationWork prepare(std::shared_ptr<const MeshView> input_ptr, SegmentOptio
         choose_form(topology);
         work.conformal = conformal_stage::prepare(r.traced_input, work.options.conformal, &topology);
     }
+    // The segmentation needs one form; the basis costs a solve per form (2g of them), the form
+    // alone the same few whatever the genus.
+    if (work.conformal.form_count() >= kChosenFormOnlyForms) work.conformal.options.chosen_form_only = true;
     return work;
 }
 

@@ -612,7 +612,7 @@ TEST(Cli, MaxMemoryRefusesAModelOverIt) {
     test::TempDir dir;
     const std::string mesh = test::corpus("eight.off");
     const auto refused = test::run_cli("segment '" + test::corpus("cheese.off") + "' -o '" + (dir.path() / "a").string() +
-                                       "' --max-memory 1");  // genus 133: about 214 MiB of forms
+                                       "' --max-memory 1");  // genus 133: about 19 MiB for its form
     EXPECT_EQ(refused.status, 7) << refused.err;
     EXPECT_NE(refused.err.find("error: resource_limit: "), std::string::npos) << refused.err;
     EXPECT_NE(refused.err.find("266 forms"), std::string::npos) << refused.err;

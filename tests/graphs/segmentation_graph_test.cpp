@@ -2,6 +2,7 @@
 // the factorization cache on a pose collection, and the DOT diagram.
 #include "holoflow/graphs/segmentation_graph.h"
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -172,6 +173,43 @@ TEST(SegmentationGraph, ComponentsAreSegmentedOneByOne) {
     EXPECT_EQ(complex["faces"].back()["patch"], patches - 1);
     for (const auto& edge : complex["edges"])
         for (const auto& patch : edge["patches"]) EXPECT_LT(patch.get<std::int64_t>(), patches);
+}
+
+// A part computing its form alone (cheese: 266 forms) has no solve blocks; the part after it (eight)
+// does. The blocks' wall time is shared out from the part that had blocks, so no stage of either
+// takes longer than the whole run (it was counted from a clock never started: 15 hours).
+TEST(SegmentationGraph, APartComputingItsFormAloneLeavesTheStageTimesSound) {
+    const TempDir dir;
+    Index offset = 0;
+    std::ostringstream vertices, faces;
+    vertices.precision(17);
+    Index n_vertices = 0, n_faces = 0;
+    for (const char* name : {"cheese.off", "eight.off"}) {
+        const std::shared_ptr<const MeshView> mesh = engine::load_mesh(corpus(name)).mesh;
+        for (Index v = 0; v < mesh->n_vertices(); ++v)
+            vertices << mesh->V(v, 0) << ' ' << mesh->V(v, 1) << ' ' << mesh->V(v, 2) << '\n';
+        for (Index f = 0; f < mesh->n_faces(); ++f)
+            faces << "3 " << offset + mesh->F(f, 0) << ' ' << offset + mesh->F(f, 1) << ' ' << offset + mesh->F(f, 2) << '\n';
+        offset += mesh->n_vertices();
+        n_vertices += mesh->n_vertices();
+        n_faces += mesh->n_faces();
+    }
+    const std::string path = dir.write("cheese_and_eight.off", "OFF\n" + std::to_string(n_vertices) + ' ' +
+                                                                  std::to_string(n_faces) + " 0\n" + vertices.str() + faces.str());
+    SegmentationGraphOptions options;
+    options.keep_results = true;
+    const auto start = std::chrono::steady_clock::now();
+    const std::vector<ModelRun> runs = SegmentationGraph(options).run(engine::make_tasks({path}, dir.path()));
+    const double wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_TRUE(runs[0].outcome.status.ok()) << runs[0].outcome.status.message;
+    const nlohmann::json& report = runs[0].report;
+    ASSERT_EQ(report["component_count"], 2);
+    EXPECT_EQ(report["components"][0]["working_genus"], 133);
+    EXPECT_FALSE(report["components"][0]["timings_ms"].contains("solves"));  // its form alone
+    EXPECT_TRUE(report["components"][1]["timings_ms"].contains("solves"));
+    for (const nlohmann::json* times : {&report["timings_ms"], &report["components"][0]["timings_ms"],
+                                        &report["components"][1]["timings_ms"]})
+        for (const auto& [stage, ms] : times->items()) EXPECT_LT(ms.get<double>(), wall_ms) << stage;
 }
 
 TEST(SegmentationGraph, TimeLimitFailsTheModelNotTheBatch) {

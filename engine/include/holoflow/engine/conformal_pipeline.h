@@ -60,11 +60,12 @@ struct ConformalOptions {
     //! dense 2g-column forms) exceeds this many bytes: checked before the homology allocates the
     //! forms and again before factorizing; 0: no limit.
     std::size_t max_solver_bytes = 0;
-    //! Compute the chosen form alone: two one-column solves (its real part, then its conjugate)
-    //! for each phase tried instead of 2g for the harmonic basis. No Hodge star, period matrix or
-    //! basis checks (`harmonic`, `star` and `basis` stay empty but for basis.genus). What the
-    //! segmentation's refinement tries need: on a double cover of genus 100 and more the 2g
-    //! solves were most of their time.
+    //! Compute the chosen form alone: two solves of a few columns (its real part, then its
+    //! conjugate) for each phase tried instead of 2g columns for the harmonic basis, and the
+    //! closed forms kept sparse. No Hodge star, period matrix or basis checks (`harmonic`, `star`
+    //! and `basis` stay empty but for basis.genus). What the segmentation needs: its refinement
+    //! tries always, its first solve from 64 forms on (on a double cover of genus 100 and more
+    //! the 2g solves were most of its time).
     bool chosen_form_only = false;
 };
 
@@ -164,7 +165,8 @@ void factorise(ConformalWork& work, FactorizationCache* cache, StageTimes& times
 void homology_and_factorise(ConformalWork& work, FactorizationCache* cache = nullptr);
 //! Starts the `solves` clock, keeps the closed forms on laplace_mesh() for the Hodge star, and
 //! moves the closed forms into the harmonic forms (copies given ones): the blocks turn both those
-//! and the carried ones harmonic in place. Returns the number of solve blocks.
+//! and the carried ones harmonic in place. Returns the number of solve blocks: 0 with
+//! chosen_form_only, where end_solves and hodge_star do nothing either.
 int begin_solves(ConformalWork& work);
 //! Solves block `block`'s columns and adds the potential's gradient to those columns of the
 //! harmonic forms (and of the carried forms); blocks write disjoint columns, so they may run at
