@@ -5,6 +5,11 @@
 //                                  solve with the 2g right-hand sides, on the same Laplacian the
 //                                  pipeline factors (intrinsic Delaunay cotan weights, assembled
 //                                  outside the timing loop)
+//   BM_engine_conformal_genus/genus:G/alone:A
+//                                  compute_conformal on shapes::genus_surface(G, 4), with the
+//                                  harmonic basis (A = 0) or the chosen form alone
+//                                  (ConformalOptions::chosen_form_only, A = 1): the basis grows
+//                                  with 2g solves and dense #E x 2g forms, the form alone does not
 // The console output ends with the ratio conformal / bare CHOLMOD per level.
 #include <benchmark/benchmark.h>
 
@@ -21,6 +26,7 @@
 #include "bench_support.h"
 #include "holoflow/engine/conformal_pipeline.h"
 #include "holoflow/kernels/cholesky.h"
+#include "holoflow/kernels/shapes.h"
 #include "holoflow/kernels/topology.h"
 
 namespace {
@@ -94,6 +100,24 @@ void BM_kernel_bare_cholmod(benchmark::State& state) {
     state.SetItemsProcessed(state.iterations() * faces);
 }
 
+void BM_engine_conformal_genus(benchmark::State& state) {
+    const int genus = static_cast<int>(state.range(0));
+    engine::ConformalOptions options;
+    options.chosen_form_only = state.range(1) != 0;
+    const MeshView mesh = holoflow::shapes::genus_surface(genus, 4);
+    const engine::ConformalResult check = engine::compute_conformal(mesh, options);  // warm-up
+    if (check.basis.genus != genus || !check.tau.allFinite()) {
+        state.SkipWithError("conformal stage lost the genus or produced non-finite values");
+        return;
+    }
+    for (auto _ : state) {
+        const engine::ConformalResult r = engine::compute_conformal(mesh, options);
+        benchmark::DoNotOptimize(r.tau.data());
+    }
+    state.counters["faces"] = static_cast<double>(mesh.n_faces());
+    state.SetItemsProcessed(state.iterations() * mesh.n_faces());
+}
+
 // Level 2 takes seconds per iteration: a few iterations are plenty there.
 BENCHMARK(BM_engine_conformal)
     ->ArgName("loop")
@@ -104,6 +128,11 @@ BENCHMARK(BM_engine_conformal)
     ->ArgName("loop")
     ->Arg(2)
     ->Iterations(2)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_engine_conformal_genus)
+    ->ArgNames({"genus", "alone"})
+    ->ArgsProduct({{8, 32, 128}, {0, 1}})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_kernel_bare_cholmod)
