@@ -5,6 +5,7 @@
 #include <exception>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -67,10 +68,11 @@ struct FormValues {
 
 // FormValues from the closed forms eta alone (ConformalOptions::chosen_form_only). The real part
 // is the harmonic form eta d + d f (one solve); the imaginary part the harmonic form of the
-// coefficients C^T d = A^{-1} B d (kernels::hodge_star), where B d = eta^T W (eta d + d f) needs
+// coefficients C^T d = A^{-1} B d (kernels::hodge_star; `wedge` factors A), where B d = eta^T W (eta d + d f) needs
 // no other form (B before hodge_star's symmetrisation, which changes rounding only): a second
 // solve.
-FormValues chosen_form_values(const ConformalWork& work, const Eigen::VectorXd& d) {
+FormValues chosen_form_values(const ConformalWork& work, const Eigen::PartialPivLU<Eigen::MatrixXd>& wedge,
+                              const Eigen::VectorXd& d) {
     const bool intrinsic = work.intrinsic_laplacian();
     const MeshView& laplace_mesh = work.laplace_mesh();
     const Eigen::SparseMatrix<double>& eta_surface = work.result.homology.sparse_closed_forms;
@@ -96,12 +98,7 @@ FormValues chosen_form_values(const ConformalWork& work, const Eigen::VectorXd& 
     harmonic(d, 0);
     const Eigen::Map<const Eigen::VectorXd> w(work.weights.data(), static_cast<Eigen::Index>(work.weights.size()));
     const Eigen::VectorXd inner = eta_laplace.transpose() * w.cwiseProduct(on_laplace.col(0));
-    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(work.wedge);
-    const double det = lu.determinant();
-    if (!(std::abs(det) > 1e-6) || !std::isfinite(det))
-        throw SolverFailure("chosen form: wedge matrix is singular (det " + std::to_string(det) +
-                            "): forms are not a cohomology basis");
-    harmonic(lu.solve(inner), 1);
+    harmonic(wedge.solve(inner), 1);
     const auto complex = [](const Eigen::MatrixXd& two) -> Eigen::VectorXcd {
         return two.col(0).cast<Complex>() + Complex(0, 1) * two.col(1).cast<Complex>();
     };
@@ -300,8 +297,8 @@ void homology_and_factorise(ConformalWork& work, FactorizationCache* cache) {
 }
 
 int begin_solves(ConformalWork& work) {
-    if (work.options.chosen_form_only) return 0;  // integrate solves for the form
     work.solves_started = std::chrono::steady_clock::now();
+    if (work.options.chosen_form_only) return 0;  // integrate solves for the form
     ConformalResult& r = work.result;
     const Eigen::MatrixXd& eta = work.intrinsic_laplacian() ? work.intrinsic.forms : work.closed_forms();
     work.laplace_closed_forms = eta.sparseView();
@@ -398,9 +395,13 @@ void integrate(ConformalWork& work) {
     // The form with coefficients d: a combination of the harmonic basis, or its own solves. Its
     // values on the surface are needed only for the chosen form (`surface_too`).
     const bool own_solves = work.options.chosen_form_only;
-    if (own_solves) r.basis.genus = static_cast<int>(work.form_count() / 2);
+    std::optional<Eigen::PartialPivLU<Eigen::MatrixXd>> wedge;  // factored once for every phase
+    if (own_solves) {
+        r.basis.genus = static_cast<int>(work.form_count() / 2);
+        wedge = kernels::wedge_factor(work.wedge);
+    }
     const auto values = [&](const Eigen::VectorXd& d, bool surface_too) {
-        if (own_solves) return chosen_form_values(work, d);
+        if (own_solves) return chosen_form_values(work, *wedge, d);
         FormValues v;
         if (surface_too || !intrinsic) v.surface = form_of(d, r.harmonic);
         if (intrinsic) v.laplace = form_of(d, work.intrinsic.forms);
@@ -411,9 +412,9 @@ void integrate(ConformalWork& work) {
         return intrinsic ? kernels::map_quality(work.intrinsic.mesh, work.intrinsic.edge_length, v.laplace)
                          : input_mesh_quality(v.surface);
     };
-    const auto integrate_chosen = [&] {
-        const FormValues v = values(r.form_coefficients, true);
-        r.tau = v.surface;
+    // The form of r.form_coefficients, from its values (where the Laplacian was built at least).
+    const auto integrate_chosen = [&](const FormValues& v) {
+        r.tau = v.surface.size() > 0 ? v.surface : form_of(r.form_coefficients, r.harmonic);
         // The map (a serial walk over the faces) and its quality checks are independent.
         side_by_side([&] { r.map = kernels::integrate_form(surface, r.homology, r.tau); },
                      [&] {
@@ -422,23 +423,26 @@ void integrate(ConformalWork& work) {
                      });
     };
     r.form_phase = 1;
-    integrate_chosen();
+    integrate_chosen(values(r.form_coefficients, true));
     // Where the discrete conjugate is far from a complex structure (pinholes of a mesh give the
     // star a square far from -1), whole regions of one generic form's image can fold while
     // another's do not: ChineseDragon-10kv with one tip hole, 35 % of the triangles for phase 1,
     // 1 % for phase 3. Past kFoldedShare, the next phases are tried, and the one with fewest
     // flips is kept where it has under half the first's (ties to the earlier phase).
-    const Index faces = work.intrinsic_laplacian() ? work.intrinsic.mesh.n_faces() : surface.n_faces();
+    const Index faces = intrinsic ? work.intrinsic.mesh.n_faces() : surface.n_faces();
     if (!integer && static_cast<double>(r.quality.flipped) > kFoldedShare * static_cast<double>(faces)) {
         Index best = r.quality.flipped;
         int best_phase = 1;
-        for (int phase = 2; phase <= kFormPhases; ++phase)
-            if (const Index flips = laplace_quality(values(generic(phase), false)).flipped; flips < best)
-                best = flips, best_phase = phase;
+        FormValues best_values;
+        for (int phase = 2; phase <= kFormPhases; ++phase) {
+            FormValues v = values(generic(phase), false);
+            if (const Index flips = laplace_quality(v).flipped; flips < best)
+                best = flips, best_phase = phase, best_values = std::move(v);
+        }
         if (2 * best < r.quality.flipped) {
             r.form_phase = best_phase;
             r.form_coefficients = generic(best_phase);
-            integrate_chosen();
+            integrate_chosen(best_values);
         }
     }
     if (own_solves) {

@@ -179,6 +179,12 @@ SlicedSurface slice_at_tips(const MeshView& input, const kernels::Topology& topo
     }
 }
 
+// Curves stopped at the length cap.
+Index unfinished_trajectories(const SegmentationResult& r) {
+    return std::count_if(r.trajectories.begin(), r.trajectories.end(),
+                         [](const Trajectory& t) { return t.end == Trajectory::End::LengthCap; });
+}
+
 }  // namespace
 
 namespace segment_stage {
@@ -808,11 +814,6 @@ Index vertex_at(const MeshView& mesh, const Eigen::RowVector3d& point) {
     return best;
 }
 
-Index unfinished_trajectories(const SegmentationResult& r) {
-    return std::count_if(r.trajectories.begin(), r.trajectories.end(),
-                         [](const Trajectory& t) { return t.end == Trajectory::End::LengthCap; });
-}
-
 }  // namespace
 
 void tips_where_collapsed(SegmentationWork& work) {
@@ -941,11 +942,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
                            {"distortion_max", p.distortion_max}});
     }
     nlohmann::json ends = {{"zero", 0}, {"boundary", 0}, {"collision", 0}, {"length_cap", 0}};
-    Index unfinished = 0;
-    for (const Trajectory& t : r.trajectories) {
-        ends[end_name(t.end)] = ends[end_name(t.end)].get<int>() + 1;
-        unfinished += t.end == Trajectory::End::LengthCap;
-    }
+    for (const Trajectory& t : r.trajectories) ends[end_name(t.end)] = ends[end_name(t.end)].get<int>() + 1;
     return {
         {"genus", r.input_genus},
         {"working_genus", r.conformal.basis.genus},
@@ -989,7 +986,7 @@ nlohmann::json segmentation_report(const SegmentationResult& r) {
         {"trajectories", r.trajectories.size()},
         {"transversals", r.transversals},
         {"trajectory_ends", ends},
-        {"unfinished_trajectories", unfinished},
+        {"unfinished_trajectories", unfinished_trajectories(r)},
         {"skipped_segments", r.cut.skipped_segments},
         {"patches", patches},
         {"patch_count", r.patches.info.size()},
@@ -1118,12 +1115,12 @@ nlohmann::json segmentation_report(std::span<const SegmentationResult> component
         double_covered = double_covered || part["double_covered"].get<bool>();
     }
     total["rectangle_error_max"] = rectangle_error;
-    double collapsed = 0, area = 0;
+    kernels::CollapsedArea collapsed;  // the areas summed (no per-face flags)
     for (const SegmentationResult& r : components) {
-        collapsed += r.collapsed.collapsed;
-        area += r.collapsed.total;
+        collapsed.collapsed += r.collapsed.collapsed;
+        collapsed.total += r.collapsed.total;
     }
-    total["collapsed_area"] = area > 0 ? collapsed / area : 0.0;
+    total["collapsed_area"] = collapsed.fraction();
     total["conformal_distortion"] = {{"mean", faces > 0 ? distortion_sum / faces : 0.0}, {"max", distortion_max}};
     total["double_covered"] = double_covered;
     // Vertical mode chooses the form per component (planar domains keep the generic one).

@@ -155,14 +155,11 @@ struct Stages {
         s.block_errors.clear();
         for_each_part(s.parts, [&](engine::SegmentationWork& part) { conformal_stage::end_solves(part.conformal); });
         // The parts' blocks ran together, so each part's own `solves` (its begin to its end)
-        // spans the others' too: the phase's wall time is shared out by block count instead,
-        // from the first part that had blocks (one computing its form alone has none).
-        std::size_t first = 0;
-        while (first < s.parts.size() && s.first_block[first + 1] == s.first_block[first]) ++first;
-        if (s.parts.size() > 1 && first < s.parts.size()) {
+        // spans the others' too: the phase's wall time is shared out by block count instead.
+        if (s.parts.size() > 1) {
             const double span = std::chrono::duration<double, std::milli>(
-                                    Clock::now() - s.parts[first].conformal.solves_started).count();
-            for (std::size_t p = first; p < s.parts.size(); ++p) {
+                                    Clock::now() - s.parts.front().conformal.solves_started).count();
+            for (std::size_t p = 0; p < s.parts.size(); ++p) {
                 engine::StageTimes& times = s.parts[p].conformal.result.timings_ms;
                 const auto solves = std::find_if(times.rbegin(), times.rend(), [](const auto& t) { return t.first == "solves"; });
                 if (solves != times.rend())

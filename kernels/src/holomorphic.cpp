@@ -30,13 +30,8 @@ HodgeStar hodge_star(std::span<const double> w, const Eigen::SparseMatrix<double
     const Eigen::MatrixXd inner = weighted.transpose() * omega;
     h.inner = 0.5 * (inner + inner.transpose());  // exactly symmetric
 
-    // A is an integer matrix of det +-1 for a cohomology basis, 0 otherwise: partial pivoting
-    // (blocked; full pivoting took 1 s at 2g = 938) tells them apart by its determinant.
-    const Eigen::PartialPivLU<Eigen::MatrixXd> lu(h.wedge);
+    const Eigen::PartialPivLU<Eigen::MatrixXd> lu = wedge_factor(h.wedge);
     h.wedge_det = lu.determinant();
-    if (!(std::abs(h.wedge_det) > 1e-6) || !std::isfinite(h.wedge_det))
-        throw SolverFailure("hodge_star: wedge matrix is singular (det " +
-                            std::to_string(h.wedge_det) + "): forms are not a cohomology basis");
     h.star = lu.solve(h.inner).transpose();
     if (!h.star.allFinite()) throw SolverFailure("hodge_star: non-finite star matrix");
 
@@ -46,6 +41,18 @@ HodgeStar hodge_star(std::span<const double> w, const Eigen::SparseMatrix<double
     h.star_isometry_error =
         (h.star.transpose() * h.wedge * h.star - h.wedge).norm() / h.wedge.norm();
     return h;
+}
+
+Eigen::PartialPivLU<Eigen::MatrixXd> wedge_factor(const Eigen::MatrixXd& wedge) {
+    HOLOFLOW_REQUIRE(wedge.rows() == wedge.cols(), "wedge matrix must be square");
+    // A is an integer matrix of det +-1 for a cohomology basis, 0 otherwise: partial pivoting
+    // (blocked; full pivoting took 1 s at 2g = 938) tells them apart by its determinant.
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu(wedge);
+    const double det = lu.determinant();
+    if (!(std::abs(det) > 1e-6) || !std::isfinite(det))
+        throw SolverFailure("wedge matrix is singular (det " + std::to_string(det) +
+                            "): forms are not a cohomology basis");
+    return lu;
 }
 
 HolomorphicBasis holomorphic_basis(const HodgeStar& star) {
@@ -180,15 +187,8 @@ Eigen::MatrixXi involution_matrix(const DoubleCover& cover, const HomologyBasis&
     std::vector<std::vector<Index>> images(homology.loops.size());
     for (std::size_t j = 0; j < images.size(); ++j)
         for (const Index h : homology.loops[j]) images[j].push_back(mirror(h));
-    if (!sparse) return integrate_along_paths(mesh, homology.closed_forms, images).array().round().cast<int>();
-    // Sparse forms: the images as signed edge rows, one product (integer sums, exact).
-    std::vector<Eigen::Triplet<double>> steps;
-    for (std::size_t j = 0; j < images.size(); ++j)
-        for (const Index h : images[j])
-            steps.emplace_back(static_cast<Index>(j), mesh.halfedge_edge[h], static_cast<double>(mesh.edge_sign(h)));
-    Eigen::SparseMatrix<double> paths(n, mesh.n_edges());
-    paths.setFromTriplets(steps.begin(), steps.end());
-    const Eigen::MatrixXd periods = Eigen::MatrixXd(paths * homology.sparse_closed_forms).transpose();
+    const Eigen::MatrixXd periods = sparse ? integrate_along_paths(mesh, homology.sparse_closed_forms, images)
+                                           : integrate_along_paths(mesh, homology.closed_forms, images);
     return periods.array().round().cast<int>();
 }
 

@@ -258,25 +258,7 @@ HomologyBasis compute_homology_basis(const MeshView& mesh, const HomologyOptions
             peel(j, basis.closed_forms.col(j).data());
         });
     } else {
-        // Each column through one scratch column per task, kept as its nonzeros in row order.
-        std::vector<std::vector<std::pair<Index, double>>> columns(static_cast<std::size_t>(n_gen));
-        par::for_each_range(static_cast<std::size_t>(n_gen), parallel ? 1 : columns.size() + 1,
-                            [&](std::size_t begin, std::size_t end) {
-                                std::vector<double> eta(static_cast<std::size_t>(n_e));
-                                for (std::size_t j = begin; j < end; ++j) {
-                                    std::fill(eta.begin(), eta.end(), 0.0);
-                                    peel(static_cast<Index>(j), eta.data());
-                                    for (Index e = 0; e < n_e; ++e)
-                                        if (eta[e] != 0.0) columns[j].emplace_back(e, eta[e]);
-                                }
-                            });
-        Eigen::VectorXi nonzeros(n_gen);
-        for (Index j = 0; j < n_gen; ++j) nonzeros[j] = static_cast<int>(columns[j].size());
-        basis.sparse_closed_forms.resize(n_e, n_gen);
-        basis.sparse_closed_forms.reserve(nonzeros);
-        for (Index j = 0; j < n_gen; ++j)
-            for (const auto& [e, value] : columns[j]) basis.sparse_closed_forms.insert(e, j) = value;
-        basis.sparse_closed_forms.makeCompressed();
+        basis.sparse_closed_forms = par::sparse_from_columns(n_e, n_gen, parallel, [&](Index j, double* eta) { peel(j, eta); });
     }
 
     basis.loops.reserve(n_gen);
@@ -319,6 +301,20 @@ Eigen::MatrixXd integrate_along_paths(const MeshView& mesh, const Eigen::MatrixX
         }
     });
     return total;
+}
+
+Eigen::MatrixXd integrate_along_paths(const MeshView& mesh, const Eigen::SparseMatrix<double>& forms,
+                                      std::span<const std::vector<Index>> paths) {
+    HOLOFLOW_REQUIRE(forms.rows() == mesh.n_edges(), "forms must have one row per edge");
+    std::vector<Eigen::Triplet<double>> steps;  // path j, edge, sign
+    for (std::size_t j = 0; j < paths.size(); ++j)
+        for (const Index h : paths[j]) {
+            HOLOFLOW_REQUIRE(h >= 0 && h < mesh.n_halfedges(), "halfedge " + std::to_string(h) + " out of range");
+            steps.emplace_back(static_cast<Index>(j), mesh.halfedge_edge[h], static_cast<double>(mesh.edge_sign(h)));
+        }
+    Eigen::SparseMatrix<double> along(static_cast<Eigen::Index>(paths.size()), mesh.n_edges());
+    along.setFromTriplets(steps.begin(), steps.end());
+    return Eigen::MatrixXd(along * forms).transpose();
 }
 
 Eigen::VectorXd integrate_along(const MeshView& mesh, const Eigen::MatrixXd& forms,

@@ -246,34 +246,19 @@ Eigen::SparseMatrix<double> carry_forms(const IntrinsicTriangulation& triangulat
     const auto n_edges = static_cast<Eigen::Index>(triangulation.form_slot.size());
     HOLOFLOW_REQUIRE(forms.rows() == n_edges,
                      "forms needs one row per edge (" + std::to_string(n_edges) + ")");
-    const auto n_columns = static_cast<std::size_t>(forms.cols());
-    std::vector<std::vector<std::pair<Index, double>>> columns(n_columns);
-    // Each column through one scratch column per task, as the dense overload does in place.
-    const bool parallel = n_edges >= par::kParallelColumnRows;
-    par::for_each_range(n_columns, parallel ? 1 : n_columns + 1, [&](std::size_t begin, std::size_t end) {
-        std::vector<double> eta(static_cast<std::size_t>(n_edges));
-        for (std::size_t c = begin; c < end; ++c) {
-            const auto j = static_cast<Eigen::Index>(c);
-            std::fill(eta.begin(), eta.end(), 0.0);
+    // Each column replayed as the dense overload does, in a scratch column of its thread's.
+    return par::sparse_from_columns(
+        n_edges, forms.cols(), n_edges >= par::kParallelColumnRows, [&](Eigen::Index j, double* out) {
+            thread_local std::vector<double> eta;
+            eta.assign(static_cast<std::size_t>(n_edges), 0.0);
             for (Eigen::SparseMatrix<double>::InnerIterator it(forms, j); it; ++it) {
                 HOLOFLOW_REQUIRE(std::isfinite(it.value()), "forms has non-finite values");
                 eta[static_cast<std::size_t>(it.row())] = it.value();
             }
             for (const FormFlip& f : triangulation.form_flips)
                 eta[f.edge] = f.sign_a * eta[f.from_a] + f.sign_b * eta[f.from_b];
-            for (Eigen::Index e = 0; e < n_edges; ++e)
-                if (const double value = triangulation.form_sign[e] * eta[triangulation.form_slot[e]]; value != 0.0)
-                    columns[c].emplace_back(static_cast<Index>(e), value);
-        }
-    });
-    Eigen::VectorXi nonzeros(forms.cols());
-    for (std::size_t c = 0; c < n_columns; ++c) nonzeros[static_cast<Eigen::Index>(c)] = static_cast<int>(columns[c].size());
-    Eigen::SparseMatrix<double> carried(n_edges, forms.cols());
-    carried.reserve(nonzeros);
-    for (std::size_t c = 0; c < n_columns; ++c)
-        for (const auto& [e, value] : columns[c]) carried.insert(e, static_cast<Eigen::Index>(c)) = value;
-    carried.makeCompressed();
-    return carried;
+            for (Eigen::Index e = 0; e < n_edges; ++e) out[e] = triangulation.form_sign[e] * eta[triangulation.form_slot[e]];
+        });
 }
 
 IntrinsicTriangulation intrinsic_delaunay(const MeshView& mesh, const Eigen::MatrixXd& forms,

@@ -1,5 +1,8 @@
 #include "holoflow/kernels/parallel.h"
 
+#include <algorithm>
+#include <vector>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -28,6 +31,26 @@ void for_each_index(std::size_t n, bool parallel, const std::function<void(std::
 
 void run_together(bool parallel, std::initializer_list<std::function<void()>> jobs) {
     for_each_index(jobs.size(), parallel, [&](std::size_t i) { jobs.begin()[i](); });
+}
+
+Eigen::SparseMatrix<double> sparse_from_columns(Eigen::Index rows, Eigen::Index cols, bool parallel,
+                                                const std::function<void(Eigen::Index, double*)>& fill) {
+    std::vector<std::vector<Eigen::Triplet<double>>> columns(static_cast<std::size_t>(cols));
+    for_each_range(columns.size(), parallel ? 1 : columns.size() + 1, [&](std::size_t begin, std::size_t end) {
+        std::vector<double> column(static_cast<std::size_t>(rows));
+        for (std::size_t c = begin; c < end; ++c) {
+            const auto j = static_cast<Eigen::Index>(c);
+            std::fill(column.begin(), column.end(), 0.0);
+            fill(j, column.data());
+            for (Eigen::Index i = 0; i < rows; ++i)
+                if (column[static_cast<std::size_t>(i)] != 0.0) columns[c].emplace_back(i, j, column[static_cast<std::size_t>(i)]);
+        }
+    });
+    std::vector<Eigen::Triplet<double>> entries;
+    for (const auto& column : columns) entries.insert(entries.end(), column.begin(), column.end());
+    Eigen::SparseMatrix<double> out(rows, cols);
+    out.setFromTriplets(entries.begin(), entries.end());
+    return out;
 }
 
 }  // namespace holoflow::par

@@ -176,8 +176,9 @@ TEST(SegmentationGraph, ComponentsAreSegmentedOneByOne) {
 }
 
 // A part computing its form alone (cheese: 266 forms) has no solve blocks; the part after it (eight)
-// does. The blocks' wall time is shared out from the part that had blocks, so no stage of either
-// takes longer than the whole run (it was counted from a clock never started: 15 hours).
+// does. The blocks' wall time is shared out from the first part's `solves` clock, which
+// begin_solves starts with or without blocks: no stage of either takes longer than the whole run
+// (it was counted from a clock never started: 15 hours).
 TEST(SegmentationGraph, APartComputingItsFormAloneLeavesTheStageTimesSound) {
     const TempDir dir;
     Index offset = 0;

@@ -228,7 +228,8 @@ TEST(Homology, SameBitsOnOneOrTwoThreads) {
 }
 
 // Sparse forms are the dense ones without their zeros, also where the columns are peeled in
-// parallel (more than 20000 edges), on one thread or two; their wedge matrix is the dense one's.
+// parallel (more than 20000 edges), on one thread or two; their wedge matrix and periods along
+// the loops are the dense ones'.
 TEST(Homology, SparseFormsAreTheDenseOnes) {
     for (const MeshView& mesh : {shapes::genus_surface(3, 2),
                                  subdivide_midpoint(subdivide_midpoint(subdivide_midpoint(shapes::genus_surface(6, 2))))}) {
@@ -245,6 +246,8 @@ TEST(Homology, SparseFormsAreTheDenseOnes) {
             EXPECT_EQ(sparse.loops, dense.loops);
             EXPECT_EQ(sparse.cut_edge, dense.cut_edge);
             EXPECT_TRUE(wedge_matrix(mesh, sparse.sparse_closed_forms) == wedge_matrix(mesh, dense.closed_forms));
+            EXPECT_TRUE(integrate_along_paths(mesh, sparse.sparse_closed_forms, dense.loops) ==
+                        integrate_along_paths(mesh, dense.closed_forms, dense.loops));
         }
         EXPECT_EQ(dense.sparse_closed_forms.size(), 0);
     }

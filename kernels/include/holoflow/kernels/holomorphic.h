@@ -5,6 +5,7 @@
 #include <span>
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 
 #include "holoflow/kernels/mesh_view.h"
@@ -33,6 +34,11 @@ struct HodgeStar {
 //! \pre 2g >= 2 columns, sizes match.  \throw InvalidInput; SolverFailure if A is singular.
 HodgeStar hodge_star(std::span<const double> w, const Eigen::SparseMatrix<double>& eta, const Eigen::MatrixXd& omega,
                      const Eigen::MatrixXd& wedge);
+
+//! LU factors of the wedge matrix A of 2g closed forms (what C^T = A^{-1} B solves with).
+//! \throw SolverFailure where A is singular (|det A| <= 1e-6, or not finite: det A is +-1 for a
+//! cohomology basis, 0 otherwise).
+Eigen::PartialPivLU<Eigen::MatrixXd> wedge_factor(const Eigen::MatrixXd& wedge);
 
 //! a-normalised holomorphic basis and period matrix on a canonical homology basis.
 struct HolomorphicBasis {

@@ -64,6 +64,12 @@ Eigen::VectorXd integrate_along(const MeshView& mesh, const Eigen::MatrixXd& for
 Eigen::MatrixXd integrate_along_paths(const MeshView& mesh, const Eigen::MatrixXd& forms,
                                       std::span<const std::vector<Index>> paths);
 
+//! The same for column-compressed forms (HomologyOptions::sparse_forms), as one product of the
+//! paths' signed edges with the forms: other summation orders, so the same bits for
+//! integer-valued forms such as the closed ones.  \throw InvalidInput as integrate_along.
+Eigen::MatrixXd integrate_along_paths(const MeshView& mesh, const Eigen::SparseMatrix<double>& forms,
+                                      std::span<const std::vector<Index>> paths);
+
 //! A_ij = integral over the surface of forms_i ^ forms_j (closed forms): per face (a d - b c)/2
 //! with a = f_i(v0->v1), b = f_i(v0->v2), c = f_j(v0->v1), d = f_j(v0->v2), assembled as the
 //! sparse product Omega^T S Omega (S skew, two entries per face) and skew-symmetrised.

@@ -4,6 +4,8 @@
 #include <functional>
 #include <initializer_list>
 
+#include <Eigen/SparseCore>
+
 namespace holoflow::par {
 
 //! Calls fn(begin, end) on disjoint subranges covering [0, n); runs on oneTBB workers when n is
@@ -27,5 +29,11 @@ void run_together(bool parallel, std::initializer_list<std::function<void()>> jo
 //! Column-per-task loops over #E x k form matrices go parallel from this many rows; below it one
 //! task beats the TBB split.
 constexpr std::ptrdiff_t kParallelColumnRows = 16384;
+
+//! The rows x cols column-compressed matrix whose column j `fill(j, column)` writes into a zeroed
+//! dense column of `rows` values: one scratch column per task (columns in parallel when
+//! `parallel`), so no rows x cols dense matrix is ever allocated. Exact zeros are left out.
+Eigen::SparseMatrix<double> sparse_from_columns(Eigen::Index rows, Eigen::Index cols, bool parallel,
+                                                const std::function<void(Eigen::Index, double*)>& fill);
 
 }  // namespace holoflow::par
